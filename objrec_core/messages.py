@@ -1,0 +1,78 @@
+"""Message types shared by 2D and 3D: the ROS ``std_msgs/Header`` and the detected-object array.
+
+The concrete object types (``DetectedObject2D``, ``DetectedObject3D``) live in their packages; they are
+dataclasses whose fields follow the seed's ROS messages, so ``to_dict`` gives the same nesting a ROS
+consumer would see, one JSON object per line.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import math
+from dataclasses import dataclass, field
+from typing import Any, ClassVar
+
+
+@dataclass(frozen=True)
+class Header:
+    """``std_msgs/Header``: sequence number, time stamp (seconds since the epoch) and frame id."""
+
+    seq: int = 0
+    stamp: float = 0.0
+    frame_id: str = ""
+
+    def to_dict(self) -> dict[str, Any]:
+        secs = math.floor(self.stamp)
+        nsecs = min(round((self.stamp - secs) * 1e9), 999_999_999)
+        return {"seq": self.seq, "stamp": {"secs": secs, "nsecs": nsecs}, "frame_id": self.frame_id}
+
+    @classmethod
+    def from_dict(cls, data: dict[str, Any]) -> Header:
+        stamp = data.get("stamp", 0.0)
+        if isinstance(stamp, dict):
+            stamp = stamp.get("secs", 0) + stamp.get("nsecs", 0) * 1e-9
+        return cls(seq=int(data.get("seq", 0)), stamp=float(stamp), frame_id=str(data.get("frame_id", "")))
+
+
+def message_to_dict(message: Any) -> Any:
+    """Dataclass messages to plain dicts/lists (``dataclasses.asdict`` with our Header rule)."""
+    if hasattr(message, "to_dict"):
+        return message.to_dict()
+    if dataclasses.is_dataclass(message):
+        return {f.name: message_to_dict(getattr(message, f.name)) for f in dataclasses.fields(message)}
+    if isinstance(message, list | tuple):
+        return [message_to_dict(m) for m in message]
+    return message
+
+
+@dataclass
+class DetectedObjectArray:
+    """All objects found in one frame, under one header.
+
+    Subclasses set ``object_type`` so that ``from_dict`` can rebuild typed objects from a JSON line.
+    """
+
+    header: Header = field(default_factory=Header)
+    objects: list[Any] = field(default_factory=list)
+
+    object_type: ClassVar[Any] = None
+
+    def __len__(self) -> int:
+        return len(self.objects)
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"header": self.header.to_dict(), "objects": [message_to_dict(o) for o in self.objects]}
+
+    def to_json(self) -> str:
+        return json.dumps(self.to_dict(), separators=(",", ":"))
+
+    @classmethod
+    def from_dict(cls, data: dict[str, Any]) -> DetectedObjectArray:
+        make = getattr(cls.object_type, "from_dict", None)
+        objects = [make(o) if make else o for o in data.get("objects", [])]
+        return cls(header=Header.from_dict(data.get("header", {})), objects=objects)
+
+    @classmethod
+    def from_json(cls, line: str) -> DetectedObjectArray:
+        return cls.from_dict(json.loads(line))

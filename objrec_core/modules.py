@@ -1,0 +1,83 @@
+"""The two kinds of pipeline module: filters transform a frame, detectors find objects in it."""
+
+from __future__ import annotations
+
+from abc import abstractmethod
+from dataclasses import dataclass
+from typing import Any, ClassVar
+
+from .messages import DetectedObjectArray
+from .parametrizable import Parametrizable
+
+
+@dataclass(frozen=True)
+class Rect:
+    """An axis-aligned rectangle in image pixels (a user's area selection)."""
+
+    x: int
+    y: int
+    width: int
+    height: int
+
+    def __post_init__(self) -> None:
+        if self.width <= 0 or self.height <= 0:
+            raise ValueError(f"a selection needs a positive size, got {self.width}x{self.height}")
+
+    @classmethod
+    def from_corners(cls, x0: float, y0: float, x1: float, y1: float) -> Rect:
+        """From two opposite corners in any order (a mouse drag can go any way)."""
+        left, right = sorted((round(x0), round(x1)))
+        top, bottom = sorted((round(y0), round(y1)))
+        return cls(left, top, right - left, bottom - top)
+
+
+class SelectionRefused(ValueError):
+    """A detector could not use an area selection; the message is the reason to show the user."""
+
+
+class Filter(Parametrizable):
+    """Turns one frame into another (an image into a mask, a cloud into a smaller cloud)."""
+
+    @abstractmethod
+    def filter(self, frame: Any) -> Any: ...
+
+
+class Detector(Parametrizable):
+    """Finds objects in a frame.
+
+    ``object_name`` is not a tunable parameter but part of the recognition system's definition: every
+    object this detector reports carries it. ``object_array_type`` is the message type its results go in.
+    """
+
+    object_array_type: ClassVar[type[DetectedObjectArray]] = DetectedObjectArray
+
+    def __init__(self, id: str | None = None, *, object_name: str | None = None, **parameters: Any) -> None:
+        super().__init__(id, **parameters)
+        #: The name given to this detector alone; None means "the system's object name".
+        self.own_object_name = object_name
+        #: Set by the RecognitionSystem that holds this detector.
+        self.system_object_name = "object"
+
+    @property
+    def object_name(self) -> str:
+        """The name every object found by this detector carries."""
+        return self.own_object_name if self.own_object_name is not None else self.system_object_name
+
+    @object_name.setter
+    def object_name(self, name: str | None) -> None:
+        self.own_object_name = name
+
+    @abstractmethod
+    def detect(self, frame: Any) -> list[Any]:
+        """Return the objects found in the frame, each named ``self.object_name``."""
+
+    def process_area_selection(self, rect: Rect, frame: Any) -> None:
+        """A user selected ``rect`` in ``frame`` (as this detector sees it). Default: ignored.
+
+        Raise SelectionRefused with a reason the GUI can show when the selection cannot be used.
+        """
+        return None
+
+    def render_debug(self, frame: Any, objects: list[Any]) -> Any | None:
+        """An extra view of how this detector sees the frame (keypoints, matches), or None."""
+        return None

@@ -1,0 +1,188 @@
+"""A recognition system: the object's name and the pipeline of filters and detectors, in order."""
+
+from __future__ import annotations
+
+import threading
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+from .messages import DetectedObjectArray
+from .modules import Detector, Filter
+from .observer import Subject
+from .parametrizable import Parametrizable
+
+
+class PipelineError(ValueError):
+    """A pipeline that cannot work: duplicate ids, mixed 2D/3D modules, no detector where one is needed."""
+
+
+@dataclass
+class Stage:
+    """One step's result, for views that show every stage (not only the last, as the seed did)."""
+
+    id: str
+    type_name: str
+    role: str  # "input", "filter" or "detector"
+    output: Any
+    objects: list[Any] = field(default_factory=list)
+    debug: Any = None
+
+
+@dataclass
+class PipelineResult:
+    objects: list[Any]
+    stages: list[Stage] | None = None
+    detector_inputs: dict[str, Any] = field(default_factory=dict)
+
+
+class RecognitionSystem(Subject):
+    """Filters transform the frame in order; each detector finds objects in the frame as it stands at
+    its place in the pipeline. All modules must be of one kind (2d or 3d).
+
+    The module list is replaced, never mutated, so a worker thread processing a frame is unaffected by a
+    GUI thread adding or removing a module; observers hear of every pipeline change.
+    """
+
+    def __init__(
+        self,
+        modules: Iterable[Parametrizable] = (),
+        object_name: str = "object",
+        kind: str | None = None,
+        description: str = "",
+    ) -> None:
+        super().__init__()
+        self._lock = threading.RLock()
+        self._object_name = object_name
+        self.description = description
+        self._kind = kind
+        self._modules: tuple[Parametrizable, ...] = ()
+        self.set_modules(list(modules))
+
+    # -- structure ------------------------------------------------------------------------------------
+    @property
+    def object_name(self) -> str:
+        """The name detected objects carry, unless a detector has a name of its own."""
+        return self._object_name
+
+    @object_name.setter
+    def object_name(self, name: str) -> None:
+        self._object_name = name
+        for d in self.detectors:
+            d.system_object_name = name
+
+    @property
+    def modules(self) -> tuple[Parametrizable, ...]:
+        return self._modules
+
+    @property
+    def filters(self) -> list[Filter]:
+        return [m for m in self._modules if isinstance(m, Filter)]
+
+    @property
+    def detectors(self) -> list[Detector]:
+        return [m for m in self._modules if isinstance(m, Detector)]
+
+    @property
+    def kind(self) -> str | None:
+        """The data kind; taken from the modules when not given."""
+        if self._kind is not None:
+            return self._kind
+        kinds = {m.kind for m in self._modules if m.kind}
+        return kinds.pop() if len(kinds) == 1 else None
+
+    @property
+    def object_array_type(self) -> type[DetectedObjectArray]:
+        detectors = self.detectors
+        return detectors[0].object_array_type if detectors else DetectedObjectArray
+
+    def module(self, module_id: str) -> Parametrizable:
+        for m in self._modules:
+            if m.id == module_id:
+                return m
+        raise KeyError(f"no module with id {module_id!r} (ids: {', '.join(m.id for m in self._modules)})")
+
+    @staticmethod
+    def check_modules(modules: Sequence[Parametrizable], kind: str | None = None) -> None:
+        """Raise PipelineError if these modules cannot form one pipeline."""
+        seen: set[str] = set()
+        for m in modules:
+            if not isinstance(m, Filter | Detector):
+                raise PipelineError(f"{m!r} is neither a Filter nor a Detector")
+            if m.id in seen:
+                raise PipelineError(f"two modules have the id {m.id!r}; give each its own id")
+            seen.add(m.id)
+        kinds = {m.kind for m in modules if m.kind} | ({kind} if kind else set())
+        if len(kinds) > 1:
+            raise PipelineError(f"modules of different kinds cannot share a pipeline: {sorted(kinds)}")
+        array_types = {m.object_array_type for m in modules if isinstance(m, Detector)}
+        if len(array_types) > 1:
+            raise PipelineError("detectors in one pipeline must report the same message type")
+
+    def set_modules(self, modules: Sequence[Parametrizable]) -> None:
+        modules = tuple(modules)
+        self.check_modules(modules, self._kind)
+        with self._lock:
+            for m in modules:
+                if isinstance(m, Detector):
+                    m.system_object_name = self._object_name
+            self._modules = modules
+        self.notify()
+
+    def add_module(self, module: Parametrizable, index: int | None = None) -> None:
+        with self._lock:
+            modules = list(self._modules)
+            modules.insert(len(modules) if index is None else index, module)
+            self.set_modules(modules)
+
+    def remove_module(self, module_id: str) -> Parametrizable:
+        with self._lock:
+            module = self.module(module_id)
+            self.set_modules([m for m in self._modules if m is not module])
+            return module
+
+    def move_module(self, module_id: str, index: int) -> None:
+        with self._lock:
+            module = self.module(module_id)
+            modules = [m for m in self._modules if m is not module]
+            modules.insert(index, module)
+            self.set_modules(modules)
+
+    def unique_id(self, base: str) -> str:
+        """An id not yet used in this system (for a second module of one type)."""
+        ids = {m.id for m in self._modules}
+        if base not in ids:
+            return base
+        n = 2
+        while f"{base}_{n}" in ids:
+            n += 1
+        return f"{base}_{n}"
+
+    # -- processing -----------------------------------------------------------------------------------
+    def process(self, data: Any, keep_stages: bool = False) -> PipelineResult:
+        """Run the pipeline on one frame's data.
+
+        With ``keep_stages`` every stage's output and each detector's debug view are kept for a view;
+        without, nothing is copied or kept (the headless path).
+        """
+        modules = self._modules
+        objects: list[Any] = []
+        if not keep_stages:
+            for m in modules:
+                if isinstance(m, Filter):
+                    data = m.filter(data)
+                else:
+                    objects.extend(m.detect(data))
+            return PipelineResult(objects)
+        stages = [Stage("input", "input", "input", data)]
+        inputs: dict[str, Any] = {}
+        for m in modules:
+            if isinstance(m, Filter):
+                data = m.filter(data)
+                stages.append(Stage(m.id, m.type_name, "filter", data))
+            else:
+                found = m.detect(data)
+                inputs[m.id] = data
+                objects.extend(found)
+                stages.append(Stage(m.id, m.type_name, "detector", data, found, m.render_debug(data, found)))
+        return PipelineResult(objects, stages, inputs)
