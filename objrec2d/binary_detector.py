@@ -29,5 +29,5 @@ class BinaryDetector(ImageDetector):
         for contour in contours:
             if lo <= cv2.arcLength(contour, True) <= hi:
                 hull = cv2.convexHull(contour)
-                found.append(DetectedObject2D(name, Polygon.from_xy(hull.reshape(-1, 2).tolist())))
+                found.append(DetectedObject2D(name, Polygon.from_xy(hull.reshape(-1, 2))))
         return found

@@ -18,18 +18,54 @@ class Point32:
     z: float = 0.0
 
 
-@dataclass(frozen=True)
 class Polygon:
-    """``geometry_msgs/Polygon``."""
+    """``geometry_msgs/Polygon``.
 
-    points: tuple[Point32, ...] = ()
+    Detectors hand over their vertex array; the ``Point32`` objects are built only when someone reads
+    ``points``, which keeps a detector's hot path as cheap as the bare OpenCV calls.
+    """
+
+    __slots__ = ("_points", "_xy")
+
+    def __init__(self, points: Iterable[Point32] = ()) -> None:
+        self._points: tuple[Point32, ...] | None = tuple(points)
+        self._xy: list[list[float]] | None = None
 
     @classmethod
     def from_xy(cls, xy: Iterable[Iterable[float]]) -> Polygon:
-        return cls(tuple(Point32(float(x), float(y)) for x, y in xy))
+        """From vertices ``[[x, y], ...]`` (a list, or an N x 2 array such as ``cv2.convexHull``'s)."""
+        polygon = cls.__new__(cls)
+        polygon._points = None
+        polygon._xy = xy.tolist() if hasattr(xy, "tolist") else [list(v) for v in xy]
+        return polygon
+
+    @property
+    def points(self) -> tuple[Point32, ...]:
+        if self._points is None:
+            self._points = tuple(Point32(float(x), float(y)) for x, y in self._xy or ())
+        return self._points
 
     def xy(self) -> list[tuple[float, float]]:
-        return [(p.x, p.y) for p in self.points]
+        if self._points is None:
+            return [(float(x), float(y)) for x, y in self._xy or ()]
+        return [(p.x, p.y) for p in self._points]
+
+    def to_dict(self) -> dict[str, Any]:
+        if self._points is None:
+            return {"points": [{"x": float(x), "y": float(y), "z": 0.0} for x, y in self._xy or ()]}
+        return {"points": [{"x": p.x, "y": p.y, "z": p.z} for p in self._points]}
+
+    def __eq__(self, other: object) -> bool:
+        return isinstance(other, Polygon) and self.points == other.points
+
+    def __hash__(self) -> int:
+        return hash(self.points)
+
+    def __repr__(self) -> str:
+        return f"Polygon({self.xy()!r})"
+
+    def __len__(self) -> int:
+        return len(self._points) if self._points is not None else len(self._xy or ())
 
     def area(self) -> float:
         pts = self.xy()
@@ -59,10 +95,7 @@ class DetectedObject2D:
     polygon: Polygon = field(default_factory=Polygon)
 
     def to_dict(self) -> dict[str, Any]:
-        return {
-            "name": self.name,
-            "polygon": {"points": [{"x": p.x, "y": p.y, "z": p.z} for p in self.polygon.points]},
-        }
+        return {"name": self.name, "polygon": self.polygon.to_dict()}
 
     @classmethod
     def from_dict(cls, data: dict[str, Any]) -> DetectedObject2D:

@@ -78,6 +78,8 @@ class _Stopper:
         self.reason = ""
 
     def __call__(self, signum: int, _frame: FrameType | None) -> None:
+        if signum == signal.SIGINT and self.event.is_set():
+            raise KeyboardInterrupt  # a second Ctrl-C: the source itself may be stuck
         self.reason = signal.Signals(signum).name
         self.event.set()
 
@@ -132,7 +134,9 @@ def _annotation(director: DetectionDirector, plugin: Any, frame: Frame, view: st
 def run(args: argparse.Namespace, stdout: IO[str]) -> int:
     director, source, plugin = _open(args)
     stopper = _Stopper()
-    previous = signal.signal(signal.SIGTERM, stopper) if threading.current_thread() is threading.main_thread() else None
+    previous = {}
+    if threading.current_thread() is threading.main_thread():
+        previous = {sig: signal.signal(sig, stopper) for sig in (signal.SIGTERM, signal.SIGINT)}
     writer = None
     output = None
     frames = objects = 0
@@ -172,8 +176,8 @@ def run(args: argparse.Namespace, stdout: IO[str]) -> int:
         if output is not None:
             output.close()
         source.close()
-        if previous is not None:
-            signal.signal(signal.SIGTERM, previous)
+        for sig, handler in previous.items():
+            signal.signal(sig, handler)
     seconds = time.perf_counter() - start
     fps = frames / seconds if seconds > 0 else 0.0
     print(f"{PROG}: {frames} frames, {objects} objects, {seconds:.2f} s, {fps:.1f} frames/s", file=sys.stderr)

@@ -51,6 +51,11 @@ class Parametrizable(Subject, metaclass=ABCMeta):
                     declared[name] = value
                 elif name in declared:  # a subclass replaced the declaration with something else
                     del declared[name]
+        framework = [k for k in cls.__mro__ if k.__module__.startswith("objrec_core.")]
+        for name in declared:
+            owner = next((k for k in framework if name in vars(k) or hasattr(k, name)), None)
+            if owner is not None:
+                raise TypeError(f"{cls.__name__}: parameter {name!r} would hide {owner.__name__}.{name}; rename it")
         cls._declared = declared
         if "type_name" not in vars(cls):
             cls.type_name = cls.__name__

@@ -1,0 +1,70 @@
+#!/usr/bin/env bash
+# One entry point for a fresh Debian/Ubuntu machine: installs what objrec needs (once; a second run is
+# fast), then runs the demo or the test suite.
+#   bash scripts/objrec.sh demo   # set up, then detect objects in the built-in demo scene
+#   bash scripts/objrec.sh test   # set up, then run the whole test suite
+#   bash scripts/objrec.sh setup  # set up only
+set -euo pipefail
+cd "$(dirname "$0")/.."
+ROOT=$PWD
+VENV=${OBJREC_VENV:-$ROOT/.venv}
+PY=${PYTHON:-python3}
+
+say() { printf 'objrec: %s\n' "$*" >&2; }
+
+# System libraries: Open3D needs libusb; Qt needs GL/EGL/xkbcommon/fontconfig even offscreen; Xvfb serves
+# OpenGL views in tests. Installed only when one is missing.
+APT_PACKAGES=(python3 python3-venv python3-pip libusb-1.0-0 libgl1 libegl1 libxkbcommon0 libfontconfig1
+              libglib2.0-0 libdbus-1-3 xvfb)
+install_system_packages() {
+  command -v dpkg-query >/dev/null 2>&1 || { say "not a Debian/Ubuntu system: install ${APT_PACKAGES[*]} yourself"; return 0; }
+  local missing=()
+  for p in "${APT_PACKAGES[@]}"; do
+    dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+  done
+  [ ${#missing[@]} -eq 0 ] && return 0
+  local sudo=""
+  [ "$(id -u)" -ne 0 ] && sudo="sudo"
+  say "installing system packages: ${missing[*]}"
+  $sudo apt-get update -qq
+  DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
+}
+
+install_python_packages() {
+  if [ ! -x "$VENV/bin/python" ]; then
+    say "creating the virtual environment in $VENV"
+    "$PY" -m venv "$VENV"
+  fi
+  local stamp="$VENV/.objrec-setup"
+  local want
+  want=$(sha256sum pyproject.toml | cut -d' ' -f1)
+  if [ -f "$stamp" ] && [ "$(cat "$stamp")" = "$want" ] && "$VENV/bin/python" -c "import objrec_core" 2>/dev/null; then
+    return 0
+  fi
+  say "installing objrec and its Python dependencies (first run: a few minutes)"
+  "$VENV/bin/python" -m pip install -q --upgrade pip
+  "$VENV/bin/python" -m pip install -q -e ".[dev]"
+  echo "$want" > "$stamp"
+}
+
+setup() {
+  install_system_packages
+  install_python_packages
+}
+
+case "${1:-}" in
+  setup)
+    setup ;;
+  demo)
+    setup
+    shift
+    exec "$VENV/bin/objrec-detect" params/hsv_demo.yaml --source demo --max-frames 100 "$@" ;;
+  test)
+    setup
+    shift
+    export QT_QPA_PLATFORM=offscreen
+    exec "$VENV/bin/python" -m pytest "$@" ;;
+  *)
+    echo "usage: bash scripts/objrec.sh demo|test|setup" >&2
+    exit 2 ;;
+esac

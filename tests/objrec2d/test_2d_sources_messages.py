@@ -1,0 +1,140 @@
+"""Image sources (files, folders, video, camera retries, errors) and the JSON shape of 2D messages."""
+
+from __future__ import annotations
+
+import json
+
+import cv2
+import numpy as np
+import pytest
+
+from objrec2d import (
+    CaptureSource,
+    DetectedObject2D,
+    DetectedObject2DArray,
+    FolderSource,
+    ImageFileSource,
+    Polygon,
+    open_source,
+)
+from objrec_core import Header, SourceError
+
+
+def write_images(folder, count):
+    folder.mkdir()
+    for i in range(count):
+        cv2.imwrite(str(folder / f"f{i}.png"), np.full((8, 8, 3), i * 10, np.uint8))
+
+
+def test_folder_in_natural_order_and_corrupt_files_are_reported(tmp_path, caplog):
+    folder = tmp_path / "imgs"
+    write_images(folder, 11)
+    (folder / "f5.png").write_bytes(b"not a png")
+    source = open_source(str(folder))
+    assert isinstance(source, FolderSource) and source.length == 11
+    frames = list(source)
+    assert [int(f.data[0, 0, 0]) for f in frames] == [i * 10 for i in range(11) if i != 5]
+    assert "f5.png: not a readable image" in caplog.text
+    assert [p.name for p in source.skipped] == ["f5.png"]
+
+
+def test_single_image_and_errors(tmp_path):
+    path = tmp_path / "one.png"
+    cv2.imwrite(str(path), np.zeros((5, 7, 3), np.uint8))
+    source = open_source(str(path))
+    assert isinstance(source, ImageFileSource) and [f.data.shape for f in source] == [(5, 7, 3)]
+    bad = tmp_path / "bad.jpg"
+    bad.write_bytes(b"\xff\xd8garbage")
+    with pytest.raises(SourceError, match="bad.jpg: not a readable image"):
+        open_source(str(bad))
+    with pytest.raises(SourceError, match="no such file"):
+        open_source(str(tmp_path / "missing.png"))
+    with pytest.raises(SourceError, match="holds no images"):
+        (tmp_path / "empty").mkdir()
+        open_source(str(tmp_path / "empty"))
+    with pytest.raises(SourceError, match="camera:N"):
+        open_source("camera:front")
+    with pytest.raises(SourceError, match="seed"):
+        open_source("demo:x")
+
+
+def test_video_file_is_read_to_its_end(tmp_path):
+    path = tmp_path / "clip.avi"
+    writer = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*"MJPG"), 10, (64, 48))
+    for i in range(12):
+        writer.write(np.full((48, 64, 3), i * 20, np.uint8))
+    writer.release()
+    source = open_source(str(path))
+    assert isinstance(source, CaptureSource) and source.length == 12
+    frames = list(source)
+    assert len(frames) == 12 and frames[0].data.shape == (48, 64, 3)
+    assert frames[5].stamp - frames[0].stamp == pytest.approx(0.5)
+
+
+@pytest.mark.realdata
+def test_real_video_file(shared_data):
+    frames = list(open_source(str(shared_data / "images" / "tree.avi")))
+    assert len(frames) > 10 and frames[0].data.ndim == 3
+
+
+class FlakyCapture:
+    """A camera that delivers ``good`` frames, then nothing; reopening helps ``recover`` times."""
+
+    opened = 0
+
+    def __init__(self, plan):
+        self.plan = plan
+        FlakyCapture.opened += 1
+
+    def isOpened(self):  # noqa: N802 - OpenCV's name
+        return True
+
+    def get(self, prop):
+        return 0
+
+    def read(self):
+        if self.plan:
+            return self.plan.pop(0), np.zeros((4, 4, 3), np.uint8)
+        return False, None
+
+    def release(self):
+        pass
+
+
+def test_a_dropped_camera_is_retried_a_bounded_number_of_times():
+    plans = [[True, True, False], [True, False], [False], [False], [False]]
+    source = CaptureSource(0, "camera:0", True, retries=3, retry_delay=0, opener=lambda _t: FlakyCapture(plans.pop(0)))
+    frames = []
+    with pytest.raises(SourceError, match="camera:0: camera stopped delivering frames after 3 retries"):
+        for frame in source:
+            frames.append(frame)
+    assert len(frames) == 3  # two before the drop, one after the first reopen
+
+
+def test_missing_camera_is_a_clear_error():
+    with pytest.raises(SourceError, match="camera:97: cannot open camera"):
+        open_source("camera:97")
+
+
+def test_detected_objects_serialise_with_the_ros_nesting():
+    obj = DetectedObject2D("cup", Polygon.from_xy([(1, 2), (3, 2), (3, 5)]))
+    array = DetectedObject2DArray(Header(seq=7, stamp=12.25, frame_id="cam"), [obj])
+    data = json.loads(array.to_json())
+    assert data == {
+        "header": {"seq": 7, "stamp": {"secs": 12, "nsecs": 250000000}, "frame_id": "cam"},
+        "objects": [
+            {
+                "name": "cup",
+                "polygon": {
+                    "points": [
+                        {"x": 1.0, "y": 2.0, "z": 0.0},
+                        {"x": 3.0, "y": 2.0, "z": 0.0},
+                        {"x": 3.0, "y": 5.0, "z": 0.0},
+                    ]
+                },
+            }
+        ],
+    }
+    back = DetectedObject2DArray.from_json(array.to_json())
+    assert back.objects == [obj] and back.header == array.header
+    assert obj.polygon.centroid() == pytest.approx((7 / 3, 3.0))
