@@ -45,7 +45,7 @@ def test_single_image_and_errors(tmp_path):
     assert isinstance(source, ImageFileSource) and [f.data.shape for f in source] == [(5, 7, 3)]
     bad = tmp_path / "bad.jpg"
     bad.write_bytes(b"\xff\xd8garbage")
-    with pytest.raises(SourceError, match="bad.jpg: not a readable image"):
+    with pytest.raises(SourceError, match=r"bad\.jpg: not a readable image"):
         open_source(str(bad))
     with pytest.raises(SourceError, match="no such file"):
         open_source(str(tmp_path / "missing.png"))
