@@ -1,0 +1,98 @@
+"""Draw the patrol machine as a Mermaid state diagram, active states marked, like smach_viewer's figure.
+
+The drawing is generated from the same state and transition tables the machine is built from, so it
+cannot drift from the code. Mermaid cannot draw an arrow out of a nested state to an outer one, so such
+transitions start at the outer state that contains their source (as smach_viewer draws a container's
+outcomes), with the inner source named in the label.
+"""
+
+from __future__ import annotations
+
+from collections import defaultdict
+from collections.abc import Iterable
+from pathlib import Path
+from typing import Any
+
+from .patrol import OUTCOME, SEP, SHUTDOWN, patrol_states, patrol_transitions
+
+INDENT = "    "
+
+
+def _edges(n_poses: int) -> dict[str, list[tuple[str, str, str]]]:
+    """Transitions grouped by the composite state in which they are drawn ('' = top level)."""
+    grouped: dict[tuple[str, str, str, str], list[str]] = defaultdict(list)
+    for t in patrol_transitions(n_poses):
+        if t["source"] == "initial":
+            continue
+        src, dst = t["source"].split(SEP), t["dest"].split(SEP)
+        common = 0
+        while common < min(len(src), len(dst)) - 1 and src[common] == dst[common]:
+            common += 1
+        a, b = src[common], dst[common]
+        note = f" from {src[-1]}" if len(src) > common + 1 else ""
+        cond = t.get("conditions")
+        label_tail = (f" [{cond}]" if cond else "") + note
+        grouped[(SEP.join(src[:common]), a, b, label_tail)].append(t["trigger"])
+    out: dict[str, list[tuple[str, str, str]]] = defaultdict(list)
+    for (scope, a, b, tail), triggers in grouped.items():
+        out[scope].append((a, b, ", ".join(dict.fromkeys(triggers)) + tail))
+    return out
+
+
+def _emit(states: list[Any], scope: str, edges: dict[str, list[tuple[str, str, str]]], depth: int,
+          lines: list[str], active: set[str], initial: str | None = None) -> None:
+    pad = INDENT * depth
+    if initial:
+        lines.append(f"{pad}[*] --> {initial}")
+    for state in states:
+        spec = state if isinstance(state, dict) else {"name": state}
+        name = spec["name"]
+        full = f"{scope}{SEP}{name}" if scope else name
+        if "parallel" in spec:
+            lines.append(f"{pad}state {name} {{")
+            for k, region in enumerate(spec["parallel"]):
+                if k:
+                    lines.append(f"{pad}{INDENT}--")
+                _emit([region], full, edges, depth + 1, lines, active)
+            lines.append(f"{pad}}}")
+        elif "children" in spec:
+            lines.append(f"{pad}state {name} {{")
+            _emit(spec["children"], full, edges, depth + 1, lines, active, spec.get("initial"))
+            lines.append(f"{pad}}}")
+        elif full in active:
+            # classDef styling does not reach into composite states in every Mermaid version; a
+            # description line does, so active simple states carry both.
+            lines.append(f"{pad}{name} : ACTIVE")
+        else:
+            lines.append(f"{pad}{name}")
+    for a, b, label in edges.get(scope, []):
+        lines.append(f"{pad}{a} --> {b} : {label}")
+
+
+def mermaid(n_poses: int, active: Iterable[str] = ()) -> str:
+    """Mermaid ``stateDiagram-v2`` text of the machine for ``n_poses`` goals; ``active`` states are marked."""
+    active = set(active)
+    lines = ["stateDiagram-v2", f"{INDENT}[*] --> MONITORED_PATROL"]
+    _emit(patrol_states(n_poses), "", _edges(n_poses), 1, lines, active)
+    lines.append(f"{INDENT}{SHUTDOWN} --> [*] : {OUTCOME}")
+    marked = sorted({a.split(SEP)[-1] for a in active})
+    lines.append(f"{INDENT}classDef active stroke:#c00,stroke-width:4px,font-weight:bold")
+    if marked:
+        lines.append(f"{INDENT}%% active: {', '.join(marked)}")
+        lines.append(f"{INDENT}class {','.join(marked)} active")
+    return "\n".join(lines) + "\n"
+
+
+def write_diagram(path: str | Path, n_poses: int, active: Iterable[str] = ()) -> Path:
+    """Write the diagram; a ``.md`` file gets a fenced mermaid block, anything else the bare text.
+
+    The file is replaced atomically, so a viewer polling it never reads half a diagram.
+    """
+    path = Path(path)
+    text = mermaid(n_poses, active)
+    if path.suffix.lower() == ".md":
+        text = "```mermaid\n" + text + "```\n"
+    tmp = path.with_name(path.name + ".tmp")
+    tmp.write_text(text, encoding="utf-8")
+    tmp.replace(path)
+    return path

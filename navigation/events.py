@@ -1,0 +1,67 @@
+"""A small event bus: everything that happens in a run, stamped with simulation time.
+
+The state machine, move_base, batteries and docking all report here; the command writes it as JSON
+Lines (``--events``), tests read it back, and the battery monitors subscribe to it the way the seed's
+smach monitors subscribed to ROS topics.
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+from collections.abc import Callable
+from pathlib import Path
+from typing import IO, Any
+
+log = logging.getLogger(__name__)
+
+Event = dict[str, Any]
+Listener = Callable[[Event], None]
+
+
+class EventLog:
+    """Collects events, hands each to subscribers and optionally streams them to a JSONL file."""
+
+    def __init__(self, time_source: Callable[[], float], keep: bool = True) -> None:
+        self._time = time_source
+        self.keep = keep
+        self.events: list[Event] = []
+        self._listeners: list[Listener] = []
+        self._stream: IO[str] | None = None
+
+    def open(self, path: str | Path) -> None:
+        """Stream every following event to ``path`` as one JSON object per line.
+
+        Line-buffered, so someone tailing the file during a real-time run sees each event as it happens.
+        """
+        # Held open for the whole run and closed by close(), so no context manager here.
+        self._stream = Path(path).open("w", encoding="utf-8", buffering=1)  # noqa: SIM115
+
+    def close(self) -> None:
+        if self._stream is not None:
+            self._stream.close()
+            self._stream = None
+
+    def subscribe(self, listener: Listener) -> Callable[[], None]:
+        """Add a listener; returns the function that removes it again."""
+        self._listeners.append(listener)
+
+        def unsubscribe() -> None:
+            if listener in self._listeners:
+                self._listeners.remove(listener)
+
+        return unsubscribe
+
+    def emit(self, kind: str, **fields: Any) -> Event:
+        event: Event = {"t": round(self._time(), 3), "type": kind, **fields}
+        if self.keep:
+            self.events.append(event)
+        if self._stream is not None:
+            self._stream.write(json.dumps(event) + "\n")
+        log.debug("event %s", event)
+        for listener in list(self._listeners):
+            listener(event)
+        return event
+
+    def of_type(self, kind: str) -> list[Event]:
+        return [e for e in self.events if e["type"] == kind]

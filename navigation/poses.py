@@ -1,0 +1,104 @@
+"""The seed's goal-pose file: one ``x, y, z, qx, qy, qz, qw`` per line, in driving order.
+
+``#`` starts a comment, blank lines are ignored, and an optional ``station_pose:`` line gives the pose
+about one metre in front of the docking station (it may be left empty when there is no station).
+Orientations are quaternions because the poses were read off ROS (amcl); only the yaw matters here.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+from .geometry import Pose2D, quaternion_from_yaw, yaw_from_quaternion
+
+STATION_KEY = "station_pose:"
+
+
+class PoseFileError(ValueError):
+    """A goal-pose file that cannot be used; the message names the file, the line and the text."""
+
+
+@dataclass(frozen=True)
+class PoseFile:
+    """The goals in driving order and the station pose, if the file gave one."""
+
+    goals: tuple[Pose2D, ...]
+    station: Pose2D | None = None
+    source: Path | None = None
+
+
+def _parse_pose(path: Path, lineno: int, text: str) -> Pose2D:
+    fields = [f.strip() for f in text.split(",")]
+    if len(fields) != 7:
+        raise PoseFileError(
+            f"{path}: line {lineno}: expected 7 comma-separated numbers "
+            f"(x, y, z, qx, qy, qz, qw), got {len(fields)} in {text!r}")
+    values = []
+    for name, raw in zip(("x", "y", "z", "qx", "qy", "qz", "qw"), fields, strict=True):
+        try:
+            value = float(raw)
+        except ValueError:
+            raise PoseFileError(f"{path}: line {lineno}: {name} is not a number: {raw!r}") from None
+        if not math.isfinite(value):
+            raise PoseFileError(f"{path}: line {lineno}: {name} is not finite: {raw!r}")
+        values.append(value)
+    x, y, _z, qx, qy, qz, qw = values
+    norm = math.sqrt(qx * qx + qy * qy + qz * qz + qw * qw)
+    if norm < 1e-9:
+        raise PoseFileError(f"{path}: line {lineno}: the orientation quaternion is zero in {text!r}")
+    return Pose2D(x, y, yaw_from_quaternion(qx / norm, qy / norm, qz / norm, qw / norm))
+
+
+def parse_poses(text: str, path: Path | str = "<poses>") -> PoseFile:
+    """Parse the text of a pose file; ``path`` only names the file in error messages."""
+    path = Path(path)
+    goals: list[Pose2D] = []
+    station: Pose2D | None = None
+    station_line = 0
+    for lineno, line in enumerate(text.splitlines(), start=1):
+        content = line.split("#", 1)[0].strip()
+        if not content:
+            continue
+        if content.lower().startswith(STATION_KEY):
+            if station_line:
+                raise PoseFileError(
+                    f"{path}: line {lineno}: second station_pose (the first is on line {station_line})")
+            station_line = lineno
+            rest = content[len(STATION_KEY):].strip()
+            if rest:
+                station = _parse_pose(path, lineno, rest)
+            continue
+        goals.append(_parse_pose(path, lineno, content))
+    if not goals:
+        raise PoseFileError(f"{path}: no goal poses (one 'x, y, z, qx, qy, qz, qw' per line expected)")
+    return PoseFile(tuple(goals), station, path)
+
+
+def load_poses(path: str | Path) -> PoseFile:
+    """Read a goal-pose file; raises :class:`PoseFileError` naming file, line and text on bad input."""
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise PoseFileError(f"{path}: pose file not found") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise PoseFileError(f"{path}: cannot read pose file ({exc})") from None
+    return parse_poses(text, path)
+
+
+def format_pose(pose: Pose2D) -> str:
+    qx, qy, qz, qw = quaternion_from_yaw(pose.yaw)
+    return ", ".join(repr(round(v, 10)) for v in (pose.x, pose.y, 0.0, qx, qy, qz, qw))
+
+
+def save_poses(path: str | Path, goals: list[Pose2D] | tuple[Pose2D, ...], station: Pose2D | None = None,
+               comment: str = "") -> Path:
+    """Write goals (and the station) in the seed's format, so files made here load in the seed too."""
+    path = Path(path)
+    lines = [f"# {c}" for c in comment.splitlines()] if comment else []
+    lines += ["# x, y, z, qx, qy, qz, qw", f"{STATION_KEY} {format_pose(station)}" if station else STATION_KEY, ""]
+    lines += [format_pose(g) for g in goals]
+    path.write_text("\n".join(lines) + "\n", encoding="utf-8")
+    return path

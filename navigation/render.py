@@ -1,0 +1,233 @@
+"""Pictures of a run: the map with the path driven, the goals, the station and the dock.
+
+A ``.png``/``.jpg`` path gets one picture of the whole run; ``.gif``, ``.avi`` and ``.mp4`` get an
+animation of the robot driving (GIF through OpenCV's animation writer, the others through
+``cv2.VideoWriter``), so no imaging library beyond OpenCV is needed. Drawing happens in the map's grid
+frame, so maps with a rotated origin come out as their image does.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+import cv2
+import numpy as np
+
+from .docking import DockingStation
+from .geometry import Pose2D
+from .maps import OccupancyMap
+
+log = logging.getLogger(__name__)
+
+STILL = (".png", ".jpg", ".jpeg", ".bmp")
+VIDEO_CODECS = {".avi": "MJPG", ".mp4": "mp4v"}
+ANIMATED = (".gif", *VIDEO_CODECS)
+
+PATH_COLOUR = (200, 110, 20)
+GOAL_COLOUR = (30, 30, 220)
+STATION_COLOUR = (40, 160, 40)
+ROBOT_COLOUR = (0, 140, 255)
+TEXT_COLOUR = (40, 40, 40)
+
+
+@dataclass
+class RunPicture:
+    """Everything a picture shows; ``trajectory`` rows are (t, x, y, yaw)."""
+
+    map: OccupancyMap
+    trajectory: Sequence[tuple[float, float, float, float]]
+    goals: Sequence[Pose2D]
+    station_pose: Pose2D | None = None
+    dock: DockingStation | None = None
+    collisions: Sequence[tuple[float, float]] = ()
+    robot_radius: float = 0.18
+    caption: str = ""
+    states: Sequence[tuple[float, str]] = ()
+
+
+class _Canvas:
+    """Crop of the map around what matters, scaled up; converts world points to pixels."""
+
+    def __init__(self, pic: RunPicture, max_side: int) -> None:
+        m = pic.map
+        known = np.argwhere(m.data >= 0)
+        pts = [m.world_to_grid(x, y) for _, x, y, _ in pic.trajectory]
+        pts = pts[::max(1, len(pts) // 5000)]  # the extent of a long run needs only a sample
+        pts += [m.world_to_grid(g.x, g.y) for g in pic.goals]
+        if pic.station_pose is not None:
+            pts.append(m.world_to_grid(pic.station_pose.x, pic.station_pose.y))
+        cols = [p[0] for p in pts] + ([known[:, 1].min(), known[:, 1].max() + 1] if len(known) else [])
+        rows = [p[1] for p in pts] + ([known[:, 0].min(), known[:, 0].max() + 1] if len(known) else [])
+        margin = max(2, round(1.0 / m.resolution))
+        self.c0 = max(0, math.floor(min(cols)) - margin)
+        self.c1 = min(m.width, math.ceil(max(cols)) + margin)
+        self.r0 = max(0, math.floor(min(rows)) - margin)
+        self.r1 = min(m.height, math.ceil(max(rows)) + margin)
+        crop = m.to_image()[m.height - self.r1:m.height - self.r0, self.c0:self.c1]
+        self.scale = max(1, max_side // max(crop.shape))
+        base = cv2.resize(crop, None, fx=self.scale, fy=self.scale, interpolation=cv2.INTER_NEAREST)
+        self.base = cv2.cvtColor(base, cv2.COLOR_GRAY2BGR)
+        self.map = m
+        self.px_per_m = self.scale / m.resolution
+
+    def px(self, x: float, y: float) -> tuple[int, int]:
+        gx, gy = self.map.world_to_grid(x, y)
+        return (round((gx - self.c0) * self.scale), round((self.r1 - gy) * self.scale))
+
+    def px_array(self, xy: np.ndarray) -> np.ndarray:
+        """Pixels of many world points at once (N x 2 in, N x 2 int32 out)."""
+        m = self.map
+        dx, dy = xy[:, 0] - m.origin.x, xy[:, 1] - m.origin.y
+        c, s = math.cos(m.origin.yaw), math.sin(m.origin.yaw)
+        gx, gy = (dx * c + dy * s) / m.resolution, (-dx * s + dy * c) / m.resolution
+        return np.stack([np.rint((gx - self.c0) * self.scale), np.rint((self.r1 - gy) * self.scale)],
+                        axis=1).astype(np.int32)
+
+    def heading(self, pose: Pose2D, length_m: float) -> tuple[int, int]:
+        yaw = self.map.yaw_to_grid(pose.yaw)
+        gx, gy = self.map.world_to_grid(pose.x, pose.y)
+        return (round((gx + math.cos(yaw) * length_m / self.map.resolution - self.c0) * self.scale),
+                round((self.r1 - gy - math.sin(yaw) * length_m / self.map.resolution) * self.scale))
+
+
+def _font_scale(img: np.ndarray) -> float:
+    return max(0.35, min(img.shape[:2]) / 1400.0)
+
+
+def _draw_static(canvas: _Canvas, pic: RunPicture, img: np.ndarray) -> None:
+    fs = _font_scale(img)
+    if pic.dock is not None:
+        d = pic.dock.pose
+        a, b = canvas.px(d.x, d.y), canvas.heading(d, 0.25)
+        cv2.circle(img, a, max(3, round(0.12 * canvas.px_per_m)), STATION_COLOUR, -1, cv2.LINE_AA)
+        cv2.line(img, a, b, STATION_COLOUR, 2, cv2.LINE_AA)
+        cv2.putText(img, "dock", (a[0] + 6, a[1] + 14), cv2.FONT_HERSHEY_SIMPLEX, fs, STATION_COLOUR, 1, cv2.LINE_AA)
+    if pic.station_pose is not None:
+        s = pic.station_pose
+        cv2.arrowedLine(img, canvas.px(s.x, s.y), canvas.heading(s, 0.4), STATION_COLOUR, 2, cv2.LINE_AA,
+                        tipLength=0.35)
+        p = canvas.px(s.x, s.y)
+        cv2.putText(img, "station", (p[0] + 6, p[1] - 6), cv2.FONT_HERSHEY_SIMPLEX, fs, STATION_COLOUR, 1,
+                    cv2.LINE_AA)
+    for i, g in enumerate(pic.goals):
+        p = canvas.px(g.x, g.y)
+        cv2.circle(img, p, max(3, round(0.08 * canvas.px_per_m)), GOAL_COLOUR, 1, cv2.LINE_AA)
+        cv2.arrowedLine(img, p, canvas.heading(g, 0.3), GOAL_COLOUR, 1, cv2.LINE_AA, tipLength=0.35)
+        cv2.putText(img, str(i), (p[0] + 5, p[1] + 12), cv2.FONT_HERSHEY_SIMPLEX, fs, GOAL_COLOUR, 1, cv2.LINE_AA)
+
+
+def _trajectory_pixels(canvas: _Canvas, pic: RunPicture) -> np.ndarray:
+    """The whole trajectory in pixels, converted once for all frames."""
+    if not pic.trajectory:
+        return np.zeros((0, 2), np.int32)
+    return canvas.px_array(np.asarray(pic.trajectory, dtype=np.float64)[:, 1:3])
+
+
+def _draw_trail(img: np.ndarray, pixels: np.ndarray) -> None:
+    if len(pixels) >= 2:
+        cv2.polylines(img, [pixels.reshape(-1, 1, 2)], False, PATH_COLOUR, 2, cv2.LINE_AA)
+
+
+def _draw_robot(canvas: _Canvas, pic: RunPicture, img: np.ndarray, index: int) -> None:
+    _, x, y, yaw = pic.trajectory[index]
+    c = canvas.px(x, y)
+    cv2.circle(img, c, max(3, round(pic.robot_radius * canvas.px_per_m)), ROBOT_COLOUR, 2, cv2.LINE_AA)
+    cv2.line(img, c, canvas.heading(Pose2D(x, y, yaw), pic.robot_radius), ROBOT_COLOUR, 2, cv2.LINE_AA)
+
+
+def _draw_collisions(canvas: _Canvas, pic: RunPicture, img: np.ndarray) -> None:
+    size = max(4, round(0.1 * canvas.px_per_m))
+    for x, y in pic.collisions:
+        cx, cy = canvas.px(x, y)
+        cv2.line(img, (cx - size, cy - size), (cx + size, cy + size), (0, 0, 255), 2)
+        cv2.line(img, (cx - size, cy + size), (cx + size, cy - size), (0, 0, 255), 2)
+
+
+def _state_at(pic: RunPicture, t: float) -> str:
+    state = ""
+    for when, name in pic.states:
+        if when <= t:
+            state = name.rsplit(".", 1)[-1]
+    return state
+
+
+def _label(img: np.ndarray, text: str, line: int = 0) -> None:
+    """Dark text on a white box at the top left, readable over any part of the map."""
+    fs = _font_scale(img) * 1.1
+    (w, h), base = cv2.getTextSize(text, cv2.FONT_HERSHEY_SIMPLEX, fs, 1)
+    y = 6 + (h + base + 6) * line
+    cv2.rectangle(img, (4, y), (12 + w, y + h + base + 4), (255, 255, 255), -1)
+    cv2.putText(img, text, (8, y + h + 2), cv2.FONT_HERSHEY_SIMPLEX, fs, TEXT_COLOUR, 1, cv2.LINE_AA)
+
+
+def render_still(pic: RunPicture, max_side: int = 1000) -> np.ndarray:
+    canvas = _Canvas(pic, max_side)
+    img = canvas.base.copy()
+    _draw_static(canvas, pic, img)
+    _draw_trail(img, _trajectory_pixels(canvas, pic))
+    _draw_collisions(canvas, pic, img)
+    if pic.trajectory:
+        _draw_robot(canvas, pic, img, len(pic.trajectory) - 1)
+    for k, line in enumerate(pic.caption.splitlines()):
+        _label(img, line, k)
+    return img
+
+
+def render_frames(pic: RunPicture, max_side: int = 720, max_frames: int = 300) -> list[np.ndarray]:
+    """Frames at evenly spaced moments of the run (at most ``max_frames``).
+
+    The trail is drawn incrementally on one canvas, so a long run costs its length once, not per frame.
+    """
+    canvas = _Canvas(pic, max_side)
+    trail = canvas.base.copy()
+    _draw_static(canvas, pic, trail)
+    n = len(pic.trajectory)
+    if n == 0:
+        return [trail]
+    pixels = _trajectory_pixels(canvas, pic)
+    frames = []
+    done = 0
+    for k in np.linspace(1, n, max(2, min(max_frames, n))).round().astype(int):
+        _draw_trail(trail, pixels[max(0, done - 1):k])
+        done = int(k)
+        img = trail.copy()
+        _draw_robot(canvas, pic, img, done - 1)
+        _label(img, f"t = {pic.trajectory[done - 1][0]:7.1f} s   {_state_at(pic, pic.trajectory[done - 1][0])}")
+        frames.append(img)
+    return frames
+
+
+def save_render(path: str | Path, pic: RunPicture) -> Path:
+    """Write a picture or an animation, chosen by the file extension."""
+    path = Path(path)
+    ext = path.suffix.lower()
+    if ext in STILL:
+        if not cv2.imwrite(str(path), render_still(pic)):
+            raise OSError(f"cannot write picture {path}")
+        return path
+    if ext == ".gif":
+        frames = render_frames(pic, max_side=480, max_frames=150)
+        anim = cv2.Animation()
+        anim.frames = frames
+        anim.durations = [80] * len(frames)
+        if not cv2.imwriteanimation(str(path), anim):
+            raise OSError(f"cannot write GIF animation {path}")
+        return path
+    if ext in VIDEO_CODECS:
+        frames = render_frames(pic)
+        h, w = frames[0].shape[:2]
+        h, w = h - h % 2, w - w % 2  # most codecs want even sizes
+        writer = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*VIDEO_CODECS[ext]), 15.0, (w, h))
+        if not writer.isOpened():
+            raise OSError(f"OpenCV cannot write {ext} video to {path}")
+        try:
+            for frame in frames:
+                writer.write(np.ascontiguousarray(frame[:h, :w]))
+        finally:
+            writer.release()
+        return path
+    raise ValueError(f"cannot render to {path}: use one of {', '.join(STILL + ANIMATED)}")

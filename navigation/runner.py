@@ -1,0 +1,135 @@
+"""Run a patrol to its end: step the simulation, honour Ctrl-C and limits, optionally in real time.
+
+Ctrl-C does not raise here; it asks the machine to preempt, which ends in SHUTDOWN like any other path,
+so the summary, the events file and the pictures are always written. A second Ctrl-C gives up at once.
+"""
+
+from __future__ import annotations
+
+import logging
+import signal
+import threading
+import time
+from dataclasses import dataclass
+from types import FrameType
+from typing import Any
+
+from .patrol import PatrolMachine
+
+log = logging.getLogger(__name__)
+
+# How long a preempted machine may take to reach SHUTDOWN (simulated seconds) before the run is cut.
+PREEMPT_GRACE = 60.0
+
+
+@dataclass(frozen=True)
+class Summary:
+    """What the command prints on exit."""
+
+    outcome: str | None
+    final_states: tuple[str, ...]
+    preempt_reason: str
+    laps: int
+    goals_reached: int
+    goals_aborted: int
+    goals_preempted: int
+    distance: float
+    odometry_drift: float
+    collisions: int
+    sim_time: float
+    wall_time: float
+    robot_battery: float
+    laptop_battery: float
+
+    @property
+    def speedup(self) -> float:
+        return self.sim_time / self.wall_time if self.wall_time > 0 else float("inf")
+
+    def as_dict(self) -> dict[str, Any]:
+        return {
+            "outcome": self.outcome, "final_state": list(self.final_states), "reason": self.preempt_reason,
+            "laps": self.laps, "goals_reached": self.goals_reached, "goals_aborted": self.goals_aborted,
+            "goals_preempted": self.goals_preempted, "distance_m": round(self.distance, 2),
+            "odometry_drift_m": round(self.odometry_drift, 3),
+            "collisions": self.collisions, "sim_time_s": round(self.sim_time, 1),
+            "wall_time_s": round(self.wall_time, 3), "robot_battery_percent": round(self.robot_battery, 1),
+            "laptop_battery_percent": round(self.laptop_battery, 1),
+        }
+
+
+def summarize(machine: PatrolMachine, wall_time: float) -> Summary:
+    sim, st = machine.sim, machine.stats
+    return Summary(
+        outcome=machine.outcome,
+        final_states=tuple(machine.active_states()),
+        preempt_reason=machine.preempt_reason,
+        laps=st.laps, goals_reached=st.goals_reached, goals_aborted=st.goals_aborted,
+        goals_preempted=st.goals_preempted, distance=sim.distance, odometry_drift=sim.odometry_drift(),
+        collisions=sim.collisions,
+        sim_time=sim.clock.now, wall_time=wall_time, robot_battery=sim.robot_battery.percentage,
+        laptop_battery=sim.laptop_battery.percentage,
+    )
+
+
+class _SigintFlag:
+    """Turns the first SIGINT into a flag (polled between steps) and the second into KeyboardInterrupt."""
+
+    def __init__(self) -> None:
+        self.count = 0
+        self._previous: Any = None
+        self._installed = False
+
+    def __enter__(self) -> _SigintFlag:
+        if threading.current_thread() is threading.main_thread():
+            self._previous = signal.signal(signal.SIGINT, self._handle)
+            self._installed = True
+        return self
+
+    def _handle(self, _signum: int, _frame: FrameType | None) -> None:
+        self.count += 1
+        if self.count > 1:
+            raise KeyboardInterrupt
+
+    def __exit__(self, *_exc: object) -> None:
+        if self._installed:
+            signal.signal(signal.SIGINT, self._previous)
+
+
+def run_patrol(machine: PatrolMachine, time_limit: float | None = None, realtime: bool = False,
+               speed: float = 1.0, handle_sigint: bool = True) -> Summary:
+    """Start the machine (if not started) and step until its outcome; returns the summary.
+
+    ``time_limit`` (simulated seconds) preempts the patrol like Ctrl-C would. With ``realtime`` the
+    loop sleeps so that simulated time advances ``speed`` times as fast as the wall clock.
+    """
+    sim = machine.sim
+    if not machine.entered:
+        machine.begin()
+    wall0 = time.perf_counter()
+    sim0 = sim.clock.now
+    preempt_at: float | None = None
+    flag = _SigintFlag() if handle_sigint else None
+    try:
+        if flag is not None:
+            flag.__enter__()
+        while not machine.finished:
+            if flag is not None and flag.count and not machine.preempt_requested:
+                log.info("SIGINT: preempting the patrol")
+                machine.request_preempt("SIGINT")
+            if time_limit is not None and sim.clock.now >= time_limit and not machine.preempt_requested:
+                machine.request_preempt("time limit")
+            if machine.preempt_requested:
+                preempt_at = sim.clock.now if preempt_at is None else preempt_at
+                if sim.clock.now - preempt_at > PREEMPT_GRACE:
+                    log.warning("the machine did not reach SHUTDOWN %g s after preemption; halting", PREEMPT_GRACE)
+                    sim.halt()
+                    break
+            sim.step()
+            if realtime:
+                ahead = (sim.clock.now - sim0) / speed - (time.perf_counter() - wall0)
+                if ahead > 0:
+                    time.sleep(ahead)
+    finally:
+        if flag is not None:
+            flag.__exit__()
+    return summarize(machine, time.perf_counter() - wall0)

@@ -1,0 +1,214 @@
+"""The in-process simulator that replaces Stage, amcl and the Kobuki driver for the patrol.
+
+One :meth:`Simulation.step` advances the world by a fixed time step: the active action (move_base, dock
+or undock) computes a velocity command, the base moves within its limits unless that would hit an
+obstacle (then it stops and the bump is counted once), odometry and both batteries are updated, and the
+clock fires whatever timers are due. Localisation is taken as perfect: the navigation sees the true pose,
+as if amcl had converged; the noisy odometry is kept alongside for anyone who wants it.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .battery import LaptopBattery, LaptopBatteryParams, RobotBattery, RobotBatteryParams
+from .clock import SimClock
+from .costmap import ObstacleField
+from .docking import ActionCallback, DockAction, DockingStation, DockParams, UndockAction
+from .events import EventLog
+from .follower import FollowerParams
+from .geometry import Pose2D, wrap_angle
+from .laser import LaserParams, LaserScan, cast_scan
+from .maps import OccupancyMap
+from .move_base import MoveBase, MoveBaseParams
+from .planner import Planner, PlannerParams
+from .robot import DiffDriveRobot, Odometry, RobotParams
+
+log = logging.getLogger(__name__)
+
+
+# A bump is counted once; the contact ends when the robot is this far clear of the obstacle again, so
+# pushing against a wall (stop, creep, stop) is one collision, not one per step.
+CONTACT_RELEASE = 0.05
+
+
+class StartPoseError(ValueError):
+    """The robot cannot start where it was asked to (off the map or inside an obstacle)."""
+
+
+@dataclass(frozen=True)
+class SimConfig:
+    """Everything tunable about a run; the defaults describe a TurtleBot 2 with a Kobuki base."""
+
+    dt: float = 0.1
+    robot: RobotParams = field(default_factory=RobotParams)
+    inflation_margin: float = 0.10
+    follower: FollowerParams = field(default_factory=FollowerParams)
+    move_base: MoveBaseParams = field(default_factory=MoveBaseParams)
+    robot_battery: RobotBatteryParams = field(default_factory=RobotBatteryParams)
+    robot_battery_percent: float = 100.0
+    laptop_battery: LaptopBatteryParams = field(default_factory=LaptopBatteryParams)
+    laptop_battery_percent: float = 100.0
+    laptop_plugged: bool = False
+    dock: DockParams = field(default_factory=DockParams)
+    odom_linear_noise: float = 0.0
+    odom_angular_noise: float = 0.0
+    laser: LaserParams = field(default_factory=LaserParams)
+    lethal_threshold: int = 65
+    unknown_is_obstacle: bool = True
+    seed: int = 0
+    record_every: int = 1  # keep the trajectory every N steps for pictures; 0 keeps none
+
+
+class Simulation:
+    """World, robot, batteries, dock and move_base on one simulation clock."""
+
+    def __init__(self, occ_map: OccupancyMap, start: Pose2D, config: SimConfig | None = None,
+                 station: DockingStation | None = None, field_: ObstacleField | None = None,
+                 planner: Planner | None = None) -> None:
+        self.config = cfg = config or SimConfig()
+        self.map = occ_map
+        self.clock = SimClock(cfg.dt)
+        self.events = EventLog(lambda: self.clock.now)
+        self.rng = np.random.default_rng(cfg.seed)
+        self.field = field_ or ObstacleField(occ_map, cfg.lethal_threshold, cfg.unknown_is_obstacle)
+        radius = cfg.robot.radius
+        if self.field.collides(start.x, start.y, radius):
+            raise StartPoseError(
+                f"start pose ({start.x:.3f}, {start.y:.3f}) puts the robot (radius {radius:g} m) "
+                "off the map or inside an obstacle")
+        self.planner = planner or Planner(
+            self.field, PlannerParams(robot_radius=radius, inflation_margin=cfg.inflation_margin))
+        self.start = start
+        self.robot = DiffDriveRobot(start, cfg.robot)
+        self.odom = Odometry(cfg.odom_linear_noise, cfg.odom_angular_noise, self.rng)
+        self.move_base = MoveBase(self.planner, self.clock, self.events, cfg.follower, cfg.move_base,
+                                  pose_source=lambda: self.robot.pose)
+        self.robot_battery = RobotBattery(self.events, cfg.robot_battery, cfg.robot_battery_percent)
+        self.laptop_battery = LaptopBattery(self.events, cfg.laptop_battery, cfg.laptop_battery_percent,
+                                            cfg.laptop_plugged)
+        self.station = station
+        self.dock_action = DockAction(station, radius, cfg.dock) if station else None
+        self.undock_action = UndockAction(cfg.dock)
+        self.collisions = 0
+        self.in_contact = False
+        self.distance = 0.0
+        self.trajectory: list[tuple[float, float, float, float]] = [(0.0, start.x, start.y, start.yaw)]
+        self.collision_points: list[tuple[float, float]] = []
+        self.docked = False
+        self.halted = False
+        # A velocity command used when no action drives the robot, like keyboard teleop in the seed's
+        # mapping chapter; tests use it to drive the base by hand.
+        self.teleop: tuple[float, float] | None = None
+
+    # -- actions ------------------------------------------------------------------------------------
+    def start_dock(self, callback: ActionCallback | None) -> None:
+        if self.dock_action is None:
+            raise RuntimeError("no docking station in this simulation")
+        self.move_base.cancel_goal("docking")
+        self.dock_action.start(self.robot.pose, callback)
+
+    def start_undock(self, callback: ActionCallback | None) -> None:
+        self.undock_action.start(self.robot.pose, callback)
+
+    def halt(self) -> None:
+        """Stop everything and the base: what the seed's SHUTDOWN does to the robot."""
+        self.move_base.cancel_goal("shutdown")
+        if self.dock_action is not None:
+            self.dock_action.cancel()
+        self.undock_action.cancel()
+        self.robot.stop()
+        self.halted = True
+
+    def scan(self) -> LaserScan:
+        return cast_scan(self.field, self.robot.pose, self.config.laser, self.rng)
+
+    # -- stepping -----------------------------------------------------------------------------------
+    def _command(self, pose: Pose2D, dt: float) -> tuple[float, float]:
+        if self.halted:
+            return 0.0, 0.0
+        if self.dock_action is not None and self.dock_action.active:
+            return self.dock_action.control(pose, dt, self.in_contact)
+        if self.undock_action.active:
+            return self.undock_action.control(pose, dt, self.in_contact)
+        if self.teleop is not None and not self.move_base.active:
+            return self.teleop
+        return self.move_base.control(pose, dt)
+
+    def _deliver_action_results(self) -> None:
+        for action in (self.dock_action, self.undock_action):
+            if action is None:
+                continue
+            result = action.take_result()
+            if result is None:
+                continue
+            callback, status, text = result
+            self.events.emit("action_result", action=type(action).__name__, status=status.value, text=text)
+            if callback is not None:
+                self.clock.call_later(0.0, lambda cb=callback, s=status, t=text: cb(s, t))
+
+    def step(self) -> None:
+        dt = self.config.dt
+        robot = self.robot
+        v, w = self._command(robot.pose, dt)
+        self.clock.tick()  # what happens from here on happens at the end of the step
+        if self.robot_battery.is_empty:
+            v = w = 0.0  # the motors have no power left
+        x0, y0, yaw0 = robot.x, robot.y, robot.yaw
+        x, y, yaw, nv, nw = robot.propose(v, w, dt)
+        if (x != x0 or y != y0) and self.field.collides(x, y, robot.params.radius):
+            if not self.in_contact:
+                self.collisions += 1
+                self.collision_points.append((x0, y0))
+                self.events.emit("collision", x=round(x0, 3), y=round(y0, 3))
+            self.in_contact = True
+            robot.stop()
+            x, y, nv = x0, y0, 0.0
+            robot.accept(x, y, yaw, 0.0, nw)
+        else:
+            if self.in_contact and not self.field.collides(x, y, robot.params.radius + CONTACT_RELEASE):
+                self.in_contact = False
+            robot.accept(x, y, yaw, nv, nw)
+        ds = math.hypot(x - x0, y - y0)
+        self.distance += ds
+        self.odom.update(math.copysign(ds, nv), wrap_angle(yaw - yaw0))
+        self._update_dock_contact()
+        moving = abs(nv) > 1e-3 or abs(nw) > 1e-3
+        self.robot_battery.update(dt, moving)
+        self.laptop_battery.update(dt)
+        self._deliver_action_results()
+        self.clock.fire_due()
+        if self.config.record_every and self.clock.steps % self.config.record_every == 0:
+            self.trajectory.append((self.clock.now, robot.x, robot.y, robot.yaw))
+
+    def _update_dock_contact(self) -> None:
+        if self.dock_action is None or self.station is None:
+            return
+        target = self.station.docked_pose(self.robot.params.radius)
+        on_dock = (self.dock_action.docked
+                   and math.hypot(self.robot.x - target.x, self.robot.y - target.y) < 0.05)
+        if on_dock != self.docked:
+            self.docked = on_dock
+            self.robot_battery.set_docked(on_dock)
+            if not on_dock:
+                self.dock_action.docked = False
+
+    def odometry_in_map(self) -> Pose2D:
+        """Where wheel odometry alone puts the robot, in the map frame (odom starts at the start pose)."""
+        o, s = self.odom.pose, self.start
+        c, n = math.cos(s.yaw), math.sin(s.yaw)
+        return Pose2D(s.x + c * o.x - n * o.y, s.y + n * o.x + c * o.y, wrap_angle(s.yaw + o.yaw))
+
+    def odometry_drift(self) -> float:
+        """Distance between the odometry estimate and the true pose: what amcl has to correct."""
+        return self.odometry_in_map().distance_to(self.robot.pose)
+
+    def run_for(self, seconds: float) -> None:
+        """Step until ``seconds`` of simulation time have passed (for tests and tools)."""
+        end = self.clock.steps + round(seconds / self.config.dt)
+        while self.clock.steps < end:
+            self.step()

@@ -1,0 +1,73 @@
+"""The seed's goal-pose file format (Appendix E)."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+
+from navigation.geometry import Pose2D, quaternion_from_yaw, yaw_from_quaternion
+from navigation.poses import PoseFileError, load_poses, parse_poses, save_poses
+
+
+def test_seed_b5203_file(b5203_poses):
+    assert len(b5203_poses.goals) == 15
+    assert b5203_poses.station == Pose2D(14.4, 12.8, 0.0)
+    first = b5203_poses.goals[0]
+    assert (first.x, first.y) == (10.6897900314, 14.1520320024)
+    assert first.yaw == pytest.approx(2 * math.atan2(0.0547466180359, 0.998500279326))
+    # POSE_8 faces almost exactly west (qz = -0.999, qw = 0.043).
+    assert abs(math.remainder(b5203_poses.goals[8].yaw - math.pi, 2 * math.pi)) < 0.1
+
+
+def test_comments_blank_lines_and_empty_station():
+    text = "# header\n\nstation_pose:\n1, 2, 0, 0, 0, 0, 1   # trailing comment\n\n3,4,0,0,0,1,0\n"
+    pf = parse_poses(text)
+    assert pf.station is None
+    assert pf.goals[0] == Pose2D(1.0, 2.0, 0.0)
+    assert pf.goals[1].x == 3.0 and pf.goals[1].yaw == pytest.approx(math.pi)
+
+
+def test_unnormalised_quaternion_is_normalised():
+    pf = parse_poses("0, 0, 0, 0, 0, 2, 2\n")
+    assert pf.goals[0].yaw == pytest.approx(math.pi / 2)
+
+
+@pytest.mark.parametrize(
+    ("text", "needle"),
+    [
+        ("1, 2, 3\n", "line 1: expected 7 comma-separated numbers (x, y, z, qx, qy, qz, qw), got 3 in '1, 2, 3'"),
+        ("# c\n1, 2, 0, 0, 0, zero, 1\n", "line 2: qz is not a number: 'zero'"),
+        ("1, 2, 0, 0, 0, 0, 0\n", "line 1: the orientation quaternion is zero"),
+        ("1, nan, 0, 0, 0, 0, 1\n", "line 1: y is not finite: 'nan'"),
+        ("station_pose: 1, 2\n1, 2, 0, 0, 0, 0, 1\n", "line 1: expected 7"),
+        ("station_pose:\nstation_pose:\n1, 2, 0, 0, 0, 0, 1\n", "line 2: second station_pose (the first is on line 1)"),
+        ("# nothing here\nstation_pose: 1, 2, 0, 0, 0, 0, 1\n", "no goal poses"),
+    ],
+)
+def test_errors_name_file_line_and_text(tmp_path, text, needle):
+    path = tmp_path / "poses.txt"
+    path.write_text(text)
+    with pytest.raises(PoseFileError) as err:
+        load_poses(path)
+    assert str(err.value).startswith(f"{path}: ")
+    assert needle in str(err.value)
+
+
+def test_missing_file(tmp_path):
+    with pytest.raises(PoseFileError, match="pose file not found"):
+        load_poses(tmp_path / "none.txt")
+
+
+def test_save_and_load_round_trip(tmp_path):
+    goals = [Pose2D(1.5, -2.25, 0.7), Pose2D(0.0, 3.0, -2.9)]
+    path = save_poses(tmp_path / "p.txt", goals, Pose2D(4.0, 5.0, 3.1), comment="made by a test")
+    pf = load_poses(path)
+    assert pf.station is not None and pf.station.x == 4.0 and pf.station.yaw == pytest.approx(3.1)
+    for a, b in zip(pf.goals, goals, strict=True):
+        assert (a.x, a.y) == (b.x, b.y) and a.yaw == pytest.approx(b.yaw)
+
+
+@pytest.mark.parametrize("yaw", [0.0, 1.0, -2.5, math.pi - 1e-6])
+def test_quaternion_yaw_round_trip(yaw):
+    assert yaw_from_quaternion(*quaternion_from_yaw(yaw)) == pytest.approx(yaw)
