@@ -15,12 +15,18 @@ from .parameters import Parameter, ParameterError
 _ID_PATTERN = re.compile(r"^[A-Za-z_][A-Za-z0-9_.-]*$")
 
 
+#: Ids that name a stage of their own in views (the pipeline's input).
+RESERVED_IDS = frozenset({"input"})
+
+
 def check_module_id(module_id: str) -> str:
     """Ids key parameter files and panels, so they must be plain names."""
     if not isinstance(module_id, str) or not _ID_PATTERN.match(module_id):
         raise ValueError(
             f"module id {module_id!r} is invalid: use letters, digits, '_', '-' or '.', starting with a letter"
         )
+    if module_id in RESERVED_IDS:
+        raise ValueError(f"module id {module_id!r} is reserved for the pipeline's input stage; choose another")
     return module_id
 
 

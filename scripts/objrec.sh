@@ -12,10 +12,12 @@ PY=${PYTHON:-python3}
 
 say() { printf 'objrec: %s\n' "$*" >&2; }
 
-# System libraries: Open3D needs libusb; Qt needs GL/EGL/xkbcommon/fontconfig even offscreen; Xvfb serves
-# OpenGL views in tests. Installed only when one is missing.
+# System libraries: Open3D needs libusb; Qt needs GL/EGL/xkbcommon/fontconfig even offscreen and the xcb
+# libraries on a real display; Xvfb gives tests and screenshots a display. Installed only when one is missing.
 APT_PACKAGES=(python3 python3-venv python3-pip libusb-1.0-0 libgl1 libegl1 libxkbcommon0 libfontconfig1
-              libglib2.0-0 libdbus-1-3 xvfb)
+              libglib2.0-0 libdbus-1-3 xvfb
+              libxcb-cursor0 libxcb-icccm4 libxcb-image0 libxcb-keysyms1 libxcb-randr0 libxcb-render-util0
+              libxcb-shape0 libxcb-xkb1 libxkbcommon-x11-0)
 install_system_packages() {
   command -v dpkg-query >/dev/null 2>&1 || { say "not a Debian/Ubuntu system: install ${APT_PACKAGES[*]} yourself"; return 0; }
   local missing=()

@@ -1,0 +1,181 @@
+"""objrec-define: the definition GUI. Tune a pipeline live and save the parameter file objrec-detect runs.
+
+    objrec-define hsv|feature|shape [--source SPEC]   the seed's three systems, with starting parameters
+    objrec-define PARAMS_FILE [--source SPEC]         any parameter file, its pipeline built from the file
+    objrec-define                                     an empty window (build a pipeline from the Pipeline menu)
+
+Exit codes: 0 closed normally; 2 a user mistake (bad parameter file, source or option, no display, no Qt).
+"""
+
+from __future__ import annotations
+
+import argparse
+import logging
+import os
+import signal
+import sys
+from pathlib import Path
+from typing import Any
+
+from objrec_core import (
+    FrameSource,
+    ParameterFileError,
+    RecognitionSystem,
+    SourceError,
+    UnknownModuleError,
+    build_system,
+    kind_plugin,
+)
+
+PROG = "objrec-define"
+SYSTEMS = ("hsv", "feature", "shape")
+
+
+class UserError(Exception):
+    """Reported in one line on stderr, exit code 2."""
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog=PROG,
+        description="Tune a recognition pipeline on live data and save the parameter file objrec-detect runs.",
+    )
+    parser.add_argument(
+        "system", nargs="?", metavar="hsv|feature|shape|PARAMS_FILE",
+        help="one of the three built-in systems, or a parameter file to open (none: an empty window)",
+    )
+    parser.add_argument("--source", "-s", default="demo",
+                        help="demo (default), demo:SEED, camera:N, an image, a video, a folder, a cloud file")
+    parser.add_argument("--view", choices=("tabs", "grid"), help="show the stages as tabs or as a grid")
+    parser.add_argument("--paused", action="store_true", help="start paused on the first frame")
+    parser.add_argument("--verbose", "-v", action="store_true", help="log more on stderr")
+    return parser
+
+
+def load_system(choice: str | None) -> tuple[RecognitionSystem, Path | None]:
+    """The system to open and, for a parameter file, its path."""
+    if choice is None:
+        return RecognitionSystem(), None
+    if choice in SYSTEMS and not Path(choice).is_file():
+        from objrec_apps.gui.presets import build_preset
+
+        try:
+            return build_preset(choice), None
+        except UnknownModuleError as exc:
+            raise UserError(f"the {choice} system cannot be built: {exc}") from None
+    path = Path(choice)
+    if not path.exists() and path.suffix.lower() not in (".yaml", ".yml"):
+        raise UserError(f"{choice}: neither one of {', '.join(SYSTEMS)} nor an existing parameter file")
+    try:
+        return build_system(path), path
+    except ParameterFileError as exc:
+        raise UserError(str(exc)) from None
+
+
+def open_source(spec: str, kind: str) -> FrameSource:
+    """Open the source now, so a bad one is a clear error before any window appears."""
+    try:
+        return kind_plugin(kind).open_source(spec)
+    except (SourceError, UnknownModuleError) as exc:
+        raise UserError(str(exc)) from None
+
+
+#: The libraries Qt's X11 platform plug-in loads beyond plain libxcb, with their Debian/Ubuntu packages.
+XCB_LIBRARIES = {
+    "xcb-cursor": "libxcb-cursor0",
+    "xcb-icccm": "libxcb-icccm4",
+    "xcb-image": "libxcb-image0",
+    "xcb-keysyms": "libxcb-keysyms1",
+    "xcb-randr": "libxcb-randr0",
+    "xcb-render-util": "libxcb-render-util0",
+    "xcb-shape": "libxcb-shape0",
+    "xcb-xkb": "libxcb-xkb1",
+    "xkbcommon-x11": "libxkbcommon-x11-0",
+}
+
+
+def missing_xcb_packages() -> list[str]:
+    """The packages of the X11 plug-in's libraries that cannot be found (Qt would abort without them)."""
+    from ctypes.util import find_library
+
+    return [package for library, package in XCB_LIBRARIES.items() if find_library(library) is None]
+
+
+def check_display() -> None:
+    """Qt aborts the process without a display or without its X11 libraries; say so in one line instead."""
+    platform = os.environ.get("QT_QPA_PLATFORM", "")
+    if not sys.platform.startswith("linux") or (platform and not platform.startswith("xcb")):
+        return
+    if not platform and not (os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY")):
+        raise UserError(
+            "no display: DISPLAY and WAYLAND_DISPLAY are not set. Run it on a desktop, over ssh -X, under "
+            "xvfb-run, or with QT_QPA_PLATFORM=offscreen (nothing is shown then)"
+        )
+    if os.environ.get("DISPLAY") and not os.environ.get("WAYLAND_DISPLAY"):
+        missing = missing_xcb_packages()
+        if missing:
+            raise UserError(
+                f"Qt's X11 platform needs libraries that are not installed; on Debian/Ubuntu: "
+                f"sudo apt-get install {' '.join(missing)}"
+            )
+
+
+def import_qt() -> Any:
+    try:
+        from PySide6.QtWidgets import QApplication
+
+        import objrec_apps.gui  # noqa: F401 - first, for its guard against a PySide6 bug (gui/compat.py)
+    except ImportError as exc:
+        raise UserError(f"the GUI needs PySide6, which cannot be imported ({exc}); install objrec[gui]") from None
+    return QApplication
+
+
+def run(args: argparse.Namespace) -> int:
+    check_display()
+    application_class = import_qt()
+    system, path = load_system(args.system)
+    source = open_source(args.source, system.kind or "2d")
+    application = application_class.instance() or application_class([PROG])
+    application.setApplicationName(PROG)
+    application.setOrganizationName("objrec")
+    from objrec_apps.gui import DefinitionGUI
+
+    window = DefinitionGUI(system, source=source, view_mode=args.view, paused=args.paused)
+    if path is not None:
+        window.files.remember_folder(path)
+        window.files.set_path(path)
+        window.show_message(f"Opened {path}")
+    window.show()
+    # Ctrl-C in the terminal closes the window as File>Quit would (settings saved, thread stopped). Qt's loop
+    # runs no Python between events, so a timer lets the interpreter look at its signals now and then.
+    previous = signal.signal(signal.SIGINT, lambda _signum, _frame: window.close())
+    from PySide6.QtCore import QTimer
+
+    ticker = QTimer()
+    ticker.timeout.connect(lambda: None)
+    ticker.start(250)
+    try:
+        return int(application.exec())
+    finally:
+        ticker.stop()
+        signal.signal(signal.SIGINT, previous)
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = build_parser().parse_args(argv)
+    logging.basicConfig(
+        level=logging.INFO if args.verbose else logging.WARNING,
+        format=f"{PROG}: %(levelname)s: %(message)s",
+        stream=sys.stderr,
+    )
+    try:
+        return run(args)
+    except UserError as exc:
+        print(f"{PROG}: error: {exc}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,371 @@
+"""DefinitionGUI: the window in which a user tunes a pipeline live and saves its parameter file.
+
+It wires the pieces, each in a file of its own: the processing worker (off the GUI thread), the stage
+views (2D) or the cloud view (3D), the panel column, the source bar, the File and Pipeline menus.
+"""
+
+from __future__ import annotations
+
+import logging
+import time
+from collections.abc import Callable
+from typing import Any
+
+from PySide6.QtCore import QByteArray, QSettings, Qt, Signal
+from PySide6.QtGui import QAction, QActionGroup, QCloseEvent, QKeySequence
+from PySide6.QtWidgets import (
+    QDockWidget,
+    QLabel,
+    QMainWindow,
+    QMessageBox,
+    QScrollArea,
+    QStackedWidget,
+)
+
+from objrec_core import (
+    DefinitionDirector,
+    FrameSource,
+    RecognitionSystem,
+    Rect,
+    SelectionRefused,
+    SelectionResult,
+    StageResults,
+    kind_plugin,
+)
+
+from .panel_column import PanelColumn
+from .parameter_files import ParameterFiles
+from .pipeline_menu import PipelineMenu
+from .source_bar import FrameRate, SourceBar
+from .stage_views import MODES, StageViews, stage_images
+from .view3d import View3D, prepare_scene
+from .worker import ProcessingWorker, Shown
+
+log = logging.getLogger(__name__)
+
+#: Called with each area the user selects and the results of the frame it was drawn on.
+SelectionCallback = Callable[[Rect, StageResults], None]
+
+ABOUT = """<h3>objrec-define</h3>
+<p>Tune a recognition pipeline on live data and save it as a parameter file that <code>objrec-detect</code>
+runs unchanged, headless.</p>
+<ul>
+<li><b>Parameters</b> (right): one panel per module, in pipeline order. Every change applies at once.</li>
+<li><b>Views</b> (centre): the original frame with the detections, each filter's output and each detector's
+debug view, as tabs or a grid (View menu). Hover for a pixel's coordinates, BGR and HSV values; drag a
+rectangle to give a target to the detectors (the feature detector learns it). 3D pipelines show the cloud:
+drag to rotate, right drag to pan, wheel to zoom, double click to reset.</li>
+<li><b>Source</b> (top): the demo scene, a camera, a file or a folder; pause, step, frames per second.</li>
+<li><b>Pipeline</b> menu: add, remove and reorder modules, including your own registered filters.</li>
+<li><b>File</b> menu: open and save parameter files.</li>
+</ul>"""
+
+
+def default_settings() -> QSettings:
+    return QSettings("objrec", "objrec-define")
+
+
+class DefinitionGUI(QMainWindow):
+    """The definition window for one RecognitionSystem (the object is kept; File>Open may replace its
+    modules). ``source`` is a spec (``demo``, ``camera:0``, a path) or an open FrameSource.
+
+    ``frameShown`` is emitted after each frame is put on screen, with the worker's ``Shown`` record.
+    """
+
+    frameShown = Signal(object)  # noqa: N815 - Qt's signal naming
+
+    def __init__(
+        self,
+        system: RecognitionSystem | None = None,
+        *,
+        source: str | FrameSource | None = "demo",
+        settings: QSettings | None = None,
+        fps_limit: float | None = 30.0,
+        view_mode: str | None = None,
+        paused: bool = False,
+    ) -> None:
+        super().__init__()
+        self.system = system if system is not None else RecognitionSystem()
+        self.settings = settings if settings is not None else default_settings()
+        self.director = DefinitionDirector(self.system)
+        self.worker = ProcessingWorker(self.director, fps_limit=fps_limit, prepare=self._prepare)
+        self.selection_callbacks: list[SelectionCallback] = [self.give_selection_to_detectors]
+        self.frame_rate = FrameRate()
+        self._source_kind: str | None = None
+        self._last_results: StageResults | None = None
+        self._annotate_2d: Callable[[Any, Any], Any] | None = None
+        #: The parameter generation of the frame on screen (compare with ``worker.generation``).
+        self.last_shown_generation = -1
+        self.files = ParameterFiles(self.system, self.settings, self, exclusive=self.worker.exclusive)
+
+        self.stage_views = StageViews(self._annotate, view_mode or str(self.settings.value("view/mode", "tabs")))
+        self.view3d = View3D()
+        self.central = QStackedWidget()
+        self.central.addWidget(self.stage_views)
+        self.central.addWidget(self.view3d)
+        self.setCentralWidget(self.central)
+
+        self.panels = PanelColumn(self.system)
+        scroll = QScrollArea()
+        scroll.setWidgetResizable(True)
+        scroll.setWidget(self.panels)
+        scroll.setMinimumWidth(360)
+        self.panel_dock = QDockWidget("Parameters", self)
+        self.panel_dock.setObjectName("parameters_dock")
+        self.panel_dock.setWidget(scroll)
+        self.panel_dock.setFeatures(QDockWidget.DockWidgetFeature.DockWidgetMovable
+                                    | QDockWidget.DockWidgetFeature.DockWidgetFloatable)
+        self.addDockWidget(Qt.DockWidgetArea.RightDockWidgetArea, self.panel_dock)
+
+        self.source_bar = SourceBar(self.files.last_folder, self)
+        self.addToolBar(Qt.ToolBarArea.TopToolBarArea, self.source_bar)
+
+        self.hover_label = QLabel()
+        self.path_label = QLabel()
+        # Fixed widths: a long pixel readout or a deep path must not widen the window (the path is elided).
+        self.hover_label.setFixedWidth(480)
+        self.path_label.setFixedWidth(280)
+        self.statusBar().addPermanentWidget(self.hover_label)
+        self.statusBar().addPermanentWidget(self.path_label)
+
+        self.pipeline_menu = PipelineMenu(self.system, self)
+        self._build_menus()
+        self._connect()
+        self._update_title()
+        self._restore_layout()
+        self._follow_kind()
+        if paused:
+            self.set_paused(True)
+        if isinstance(source, FrameSource):
+            self._source_kind = self.system.kind or "2d"
+            self.worker.set_source(source)
+        elif source:
+            self.open_source(source)
+        self.worker.start()
+
+    # -- construction ---------------------------------------------------------------------------------------
+    def _build_menus(self) -> None:
+        bar = self.menuBar()
+        file_menu = bar.addMenu("&File")
+        self.open_action = self._action(file_menu, "&Open…", QKeySequence.StandardKey.Open, self.files.open)
+        self.save_action = self._action(file_menu, "&Save", QKeySequence.StandardKey.Save, self.files.save)
+        self.save_as_action = self._action(file_menu, "Save &As…", QKeySequence("Ctrl+Shift+S"), self.files.save_as)
+        file_menu.addSeparator()
+        self.quit_action = self._action(file_menu, "&Quit", QKeySequence.StandardKey.Quit, self.close)
+        self.open_action.setShortcut(QKeySequence("Ctrl+O"))
+        self.save_action.setShortcut(QKeySequence("Ctrl+S"))
+        self.quit_action.setShortcut(QKeySequence("Ctrl+Q"))
+
+        view_menu = bar.addMenu("&View")
+        group = QActionGroup(self)
+        self.mode_actions: dict[str, QAction] = {}
+        for mode in MODES:
+            action = QAction(f"Stages as {mode}", self, checkable=True)
+            action.setChecked(mode == self.stage_views.mode)
+            action.triggered.connect(lambda _=False, m=mode: self.set_view_mode(m))
+            group.addAction(action)
+            view_menu.addAction(action)
+            self.mode_actions[mode] = action
+        view_menu.addSeparator()
+        view_menu.addAction(self.panel_dock.toggleViewAction())
+        view_menu.addAction(self.source_bar.toggleViewAction())
+
+        bar.addMenu(self.pipeline_menu)
+        help_menu = bar.addMenu("&Help")
+        self.about_action = self._action(help_menu, "&About", None, self.show_about)
+
+    def _action(self, menu: Any, text: str, shortcut: Any, slot: Callable[[], Any]) -> QAction:
+        action = QAction(text, self)
+        if shortcut is not None:
+            action.setShortcut(shortcut)
+        action.triggered.connect(lambda _=False: slot())
+        menu.addAction(action)
+        return action
+
+    def _connect(self) -> None:
+        self.worker.resultReady.connect(self._show_newest)
+        self.worker.failed.connect(lambda text: self.show_message(text, error=True))
+        self.worker.sourceOpened.connect(self._source_opened)
+        self.worker.sourceEnded.connect(self._source_ended)
+        self.worker.pausedChanged.connect(self.source_bar.set_paused)
+        self.worker.callDone.connect(lambda done, result: done(result))
+        self.source_bar.sourceRequested.connect(self.open_source)
+        self.source_bar.pauseToggled.connect(self.set_paused)
+        self.source_bar.stepRequested.connect(self.worker.step)
+        self.source_bar.folderUsed.connect(self.files.remember_folder)
+        self.files.message.connect(self.show_message)
+        self.files.pathChanged.connect(lambda _path: self._update_title())
+        self.files.opened.connect(lambda _path: self._follow_kind())
+        self.panels.error.connect(lambda text: self.show_message(text, error=True))
+        self.panels.pipeline_changed.connect(self._follow_kind)
+        self.pipeline_menu.message.connect(self.show_message)
+        self.stage_views.areaSelected.connect(self.hand_selection)
+        self.stage_views.hovered.connect(self.hover_label.setText)
+
+    # -- sources ------------------------------------------------------------------------------------------
+    def open_source(self, spec: str) -> None:
+        """Open a source for the pipeline's kind of data (in the worker thread)."""
+        self._source_kind = self.system.kind or "2d"
+        self.show_message(f"Opening {spec}…")
+        self.worker.open_source(spec, self._source_kind)
+
+    def set_paused(self, paused: bool) -> None:
+        self.worker.set_paused(paused)
+        self.source_bar.set_paused(paused)
+
+    def _source_opened(self, name: str) -> None:
+        self.source_bar.set_source_name(name)
+        self.show_message(f"Source: {name}")
+        self.stage_views.clear()
+        self.view3d.clear()
+
+    def _source_ended(self, name: str) -> None:
+        self.source_bar.set_source_name(name, ended=True)
+        self.show_message(f"{name} ended: parameter changes still apply to its last frame")
+
+    def _follow_kind(self) -> None:
+        """Show the page for the pipeline's kind; a pipeline that became 3D (or 2D) gets that kind's demo."""
+        kind = self.system.kind or self._source_kind or "2d"
+        self.central.setCurrentWidget(self.view3d if kind == "3d" else self.stage_views)
+        if self._source_kind is not None and self.system.kind is not None and self.system.kind != self._source_kind:
+            self.show_message(f"the pipeline now works on {self.system.kind} data: opening its demo source")
+            self.open_source("demo")
+        self._update_title()
+
+    # -- results ------------------------------------------------------------------------------------------
+    def _annotate(self, frame: Any, objects: Any) -> Any:
+        if self._annotate_2d is None:  # looked up once: an entry-point lookup reads every package's metadata
+            self._annotate_2d = kind_plugin("2d").annotate
+        return self._annotate_2d(frame, objects)
+
+    def _prepare(self, results: StageResults) -> Any:
+        """Worker thread: draw the 2D stage pictures, or merge the 3D layers, before the GUI sees them."""
+        if hasattr(results.frame.data, "points"):
+            return prepare_scene(results)
+        return stage_images(results, self._annotate, self.stage_views.display_sizes)
+
+    def _show_newest(self) -> None:
+        shown = self.worker.take()
+        if shown is None:
+            return
+        self.show_results(shown)
+
+    def show_results(self, shown: Shown) -> None:
+        results = shown.results
+        is_cloud = hasattr(results.frame.data, "points")
+        if is_cloud:
+            self.central.setCurrentWidget(self.view3d)
+            self.view3d.show_results(results, shown.prepared)
+        else:
+            self.central.setCurrentWidget(self.stage_views)
+            self.stage_views.show_results(results, shown.prepared)
+        self._last_results = results
+        self.last_shown_generation = shown.generation
+        self.frame_rate.tick(time.perf_counter())
+        self.source_bar.set_rates(self.frame_rate.rate(), results.seconds * 1000, self.worker.dropped)
+        self.frameShown.emit(shown)
+
+    @property
+    def last_results(self) -> StageResults | None:
+        """The results of the frame on screen."""
+        return self._last_results
+
+    # -- area selection -------------------------------------------------------------------------------------
+    def add_selection_callback(self, callback: SelectionCallback) -> None:
+        """Also hand every selection to ``callback(rect, results)`` (in the GUI thread)."""
+        self.selection_callbacks.append(callback)
+
+    def hand_selection(self, rect: Rect, results: StageResults | None) -> None:
+        results = results if results is not None else self._last_results
+        if results is None:
+            self.show_message("no frame on screen yet to select in", error=True)
+            return
+        for callback in list(self.selection_callbacks):
+            try:
+                callback(rect, results)
+            except Exception as exc:
+                log.exception("selection callback %r failed", callback)
+                self.show_message(f"selection failed: {exc}", error=True)
+
+    def give_selection_to_detectors(self, rect: Rect, results: StageResults) -> None:
+        """The default callback: each detector gets the rectangle with the frame it saw when the user drew it
+        (its own input in that frame's results), in the worker thread, between two frames."""
+        inputs = {s.id: s.output for s in results.stages if s.role == "detector"}
+
+        def select() -> SelectionResult:
+            outcome = SelectionResult()
+            for detector in self.system.detectors:
+                seen = inputs.get(detector.id)
+                if seen is None:
+                    outcome.refused[detector.id] = "it was not in the pipeline when this frame was processed"
+                    continue
+                try:
+                    detector.process_area_selection(rect, seen)
+                except SelectionRefused as exc:
+                    outcome.refused[detector.id] = str(exc)
+                else:
+                    outcome.accepted.append(detector.id)
+            return outcome
+
+        self.worker.call(select, lambda outcome: self._selection_done(rect, outcome))
+
+    def _selection_done(self, rect: Rect, outcome: SelectionResult | Exception) -> None:
+        where = f"{rect.width}×{rect.height} at ({rect.x}, {rect.y})"
+        if isinstance(outcome, Exception):
+            self.show_message(f"selection {where} failed: {outcome}", error=True)
+            return
+        parts = []
+        if outcome.accepted:
+            parts.append(f"selection {where} taken by {', '.join(outcome.accepted)}")
+        parts += [f"{module} refused the selection: {reason}" for module, reason in outcome.refused.items()]
+        if not parts:
+            parts.append("no detector in the pipeline takes selections")
+        self.show_message("; ".join(parts), error=bool(outcome.refused))
+        self.worker.reprocess()
+
+    # -- window ---------------------------------------------------------------------------------------------
+    def show_message(self, text: str, error: bool = False) -> None:
+        """Status bar: reports stay 10 s, errors 30 s (or until the next message)."""
+        if error:
+            log.warning("%s", text)
+        self.statusBar().showMessage(text, 30000 if error else 10000)
+
+    def set_view_mode(self, mode: str) -> None:
+        self.stage_views.set_mode(mode)
+        self.mode_actions[mode].setChecked(True)
+        self.settings.setValue("view/mode", mode)
+
+    def show_about(self) -> None:
+        QMessageBox.about(self, "About objrec-define", ABOUT)
+
+    def _update_title(self) -> None:
+        path = self.files.path
+        name = path.name if path else "untitled"
+        self.setWindowTitle(f"objrec-define — {name} ({self.system.kind or 'empty'} pipeline)")
+        text = str(path) if path else "not saved yet"
+        metrics = self.path_label.fontMetrics()
+        self.path_label.setText(metrics.elidedText(text, Qt.TextElideMode.ElideMiddle, self.path_label.width() - 8))
+        self.path_label.setToolTip(text)
+
+    def _restore_layout(self) -> None:
+        geometry = self.settings.value("window/geometry")
+        state = self.settings.value("window/state")
+        if isinstance(geometry, QByteArray | bytes):
+            self.restoreGeometry(QByteArray(geometry))
+        else:
+            self.resize(1280, 800)
+        if isinstance(state, QByteArray | bytes):
+            self.restoreState(QByteArray(state))
+
+    def save_layout(self) -> None:
+        self.settings.setValue("window/geometry", self.saveGeometry())
+        self.settings.setValue("window/state", self.saveState())
+        self.settings.setValue("view/mode", self.stage_views.mode)
+        self.settings.sync()
+
+    def closeEvent(self, event: QCloseEvent) -> None:  # noqa: N802 - Qt override
+        self.save_layout()
+        self.worker.stop()
+        self.panels.detach()
+        super().closeEvent(event)
+

@@ -1,0 +1,144 @@
+"""Parameter panels bound to their module as the seed's Document-View design: the widget calls the
+module's setter, the module notifies its observers, the panel redraws from the module's getters. A change
+made anywhere else (code, File>Open, another panel) therefore shows at once.
+
+A module type that needs more than the generated widgets registers its own panel: ``register_panel`` in
+code, or an entry point in the ``objrec.gui_panels`` group (name = module type, value = a callable taking
+the module and returning a QWidget) so a plug-in package needs no change to objrec.
+"""
+
+from __future__ import annotations
+
+import logging
+import threading
+from collections.abc import Callable
+from importlib.metadata import entry_points
+from typing import Any
+
+from PySide6.QtCore import Qt, Signal
+from PySide6.QtWidgets import QFormLayout, QGroupBox, QHBoxLayout, QLabel, QPushButton, QVBoxLayout, QWidget
+
+from objrec_core import ParameterError, Parametrizable
+
+from .param_widgets import ParameterEditor, editor_for
+
+log = logging.getLogger(__name__)
+
+PANEL_GROUP = "objrec.gui_panels"
+PanelFactory = Callable[[Parametrizable], QWidget]
+
+_factories: dict[str, PanelFactory] = {}
+_lock = threading.Lock()
+
+
+def register_panel(type_name: str, factory: PanelFactory) -> None:
+    """Use ``factory(module)`` instead of the generated panel for modules of this type (or subclasses)."""
+    with _lock:
+        _factories[type_name] = factory
+
+
+def unregister_panel(type_name: str) -> None:
+    with _lock:
+        _factories.pop(type_name, None)
+
+
+def panel_factory(module: Parametrizable) -> PanelFactory:
+    """The registered factory for the module's type or nearest base class; else the generated panel."""
+    names = [module.type_name] + [k.__name__ for k in type(module).__mro__]
+    with _lock:
+        for name in names:
+            if name in _factories:
+                return _factories[name]
+    plugins = {ep.name: ep for ep in entry_points(group=PANEL_GROUP)}
+    for name in names:
+        if name in plugins:
+            try:
+                return plugins[name].load()
+            except Exception:  # a broken plug-in panel must not cost the user the generated one
+                log.exception("panel plug-in %s cannot be loaded; using the generated panel", plugins[name].value)
+                break
+    return ParameterPanel
+
+
+def create_panel(module: Parametrizable) -> QWidget:
+    return panel_factory(module)(module)
+
+
+class _Binding:
+    """The module's observer: forwards notifications, from whatever thread, to the panel's signal."""
+
+    def __init__(self, panel: ParameterPanel) -> None:
+        self.panel: ParameterPanel | None = panel
+
+    def update(self, subject: Any) -> None:
+        panel = self.panel
+        if panel is not None:
+            panel.module_changed.emit()  # queued when a worker thread made the change
+
+
+class ParameterPanel(QGroupBox):
+    """The generated panel: one editor per declared parameter, a Restore-defaults button.
+
+    Titled with the module's id (and its type where the two differ). ``error`` carries the message of a
+    value the module refused, for the status bar; the editor then snaps back to the module's value.
+    """
+
+    error = Signal(str)
+    module_changed = Signal()
+
+    def __init__(self, module: Parametrizable, parent: QWidget | None = None) -> None:
+        title = module.id if module.id == module.type_name else f"{module.id}  ({module.type_name})"
+        super().__init__(title, parent)
+        self.module = module
+        self.setObjectName(f"panel:{module.id}")
+        self.setToolTip((type(module).__doc__ or module.type_name).strip().split("\n\n")[0])
+        self.editors: dict[str, ParameterEditor] = {}
+        layout = QVBoxLayout(self)
+        self.form = QFormLayout()
+        self.form.setFieldGrowthPolicy(QFormLayout.FieldGrowthPolicy.AllNonFixedFieldsGrow)
+        layout.addLayout(self.form)
+        for spec in module.parameter_specs():
+            editor = editor_for(spec, self)
+            editor.edited.connect(self._edited)
+            label = QLabel(spec.name)
+            label.setToolTip(editor.toolTip())
+            self.form.addRow(label, editor)
+            self.editors[spec.name] = editor
+        if not self.editors:
+            layout.addWidget(QLabel("no parameters"))
+        buttons = QHBoxLayout()
+        buttons.addStretch(1)
+        self.restore_button = QPushButton("Restore defaults")
+        self.restore_button.setToolTip("Set every parameter of this module back to its declared default")
+        self.restore_button.clicked.connect(self.restore_defaults)
+        self.restore_button.setEnabled(bool(self.editors))
+        buttons.addWidget(self.restore_button)
+        layout.addLayout(buttons)
+        self.module_changed.connect(self.redraw, Qt.ConnectionType.AutoConnection)
+        self._binding = _Binding(self)
+        module.add_observer(self._binding)
+        self.redraw()
+
+    def redraw(self) -> None:
+        """Show the module's current values (the View half of the binding)."""
+        values = self.module.get_parameters()
+        for name, editor in self.editors.items():
+            editor.show_value(values[name])
+
+    def _edited(self, name: str, value: Any) -> None:
+        try:
+            self.module.set_parameters(**{name: value})
+        except (ParameterError, ValueError) as exc:
+            self.error.emit(str(exc))
+            self.redraw()
+
+    def restore_defaults(self) -> None:
+        try:
+            self.module.reset_parameters()
+        except (ParameterError, ValueError) as exc:
+            self.error.emit(str(exc))
+
+    def detach(self) -> None:
+        """Stop observing the module (before the panel goes away)."""
+        self._binding.panel = None
+        self.module.remove_observer(self._binding)

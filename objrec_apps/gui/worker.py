@@ -1,0 +1,337 @@
+"""Processing off the GUI thread: a worker runs the DefinitionDirector, the GUI shows the newest result.
+
+The worker is the director's ``StageView``: every result goes into a one-slot mailbox that the next result
+overwrites, and the GUI is told with at most one queued signal at a time. A GUI that cannot keep up therefore
+skips frames instead of queueing them, and never freezes at camera rate.
+
+Parameter changes reach the worker through the observer (``reprocess``): the frame last read is processed
+again at once, so the user sees the effect of every change without waiting for the next frame, and also
+while paused or after a file or image source has ended.
+"""
+
+from __future__ import annotations
+
+import logging
+import threading
+import time
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass
+from typing import Any
+
+from PySide6.QtCore import QObject, Signal
+
+from objrec_core import DefinitionDirector, Frame, FrameSource, SourceError, StageResults, kind_plugin
+
+log = logging.getLogger(__name__)
+
+
+@dataclass
+class Shown:
+    """A result in the mailbox, with the parameter generation in force when its processing began."""
+
+    results: StageResults
+    generation: int
+    started: float  # time.perf_counter() when processing began
+    prepared: Any = None  # what the window's prepare hook made of it in the worker thread
+
+
+class _Watcher:
+    """Observes the system and its modules for the worker (from any thread)."""
+
+    def __init__(self, worker: ProcessingWorker) -> None:
+        self.worker = worker
+
+    def update(self, subject: Any) -> None:
+        self.worker.reprocess()
+
+
+class ProcessingWorker(QObject):
+    """Runs frames from a source through a DefinitionDirector in a thread of its own.
+
+    ``fps_limit`` paces sources that are not cameras (the demo, files, folders), so the demo moves at its
+    natural speed and no core is burnt on frames nobody sees; ``None`` runs them flat out (benchmarks).
+    """
+
+    resultReady = Signal()  # noqa: N815 - Qt's signal naming
+    sourceOpened = Signal(str)  # noqa: N815 - Qt's signal naming
+    sourceEnded = Signal(str)  # noqa: N815 - Qt's signal naming
+    failed = Signal(str)
+    pausedChanged = Signal(bool)  # noqa: N815 - Qt's signal naming
+    callDone = Signal(object, object)  # noqa: N815 - Qt's signal naming
+
+    def __init__(
+        self,
+        director: DefinitionDirector,
+        *,
+        fps_limit: float | None = 30.0,
+        prepare: Callable[[StageResults], Any] | None = None,
+        parent: QObject | None = None,
+    ) -> None:
+        super().__init__(parent)
+        self.director = director
+        self.fps_limit = fps_limit
+        #: Called in the worker thread on every result (drawing, merging clouds), so the GUI only paints.
+        self.prepare = prepare
+        self._processing_lock = threading.Lock()
+        director.set_view(self)
+        self._cond = threading.Condition()
+        self._thread: threading.Thread | None = None
+        self._stopping = False
+        self._paused = False
+        self._step_pending = False
+        self._reprocess_pending = False
+        self._commands: list[Callable[[], None]] = []
+        self._source: FrameSource | None = None
+        self._iterator: Iterator[Frame] | None = None
+        self._ended = False
+        self._last_frame: Frame | None = None
+        self._last_read = 0.0  # when reading the previous new frame began: the frame-rate clock
+        self._generation = 0
+        self._processing_generation = 0
+        self._processing_started = 0.0
+        self._latest: Shown | None = None
+        self._notified = False
+        self._last_error = ""
+        #: Frames processed, and how many of them were overwritten before the GUI took them.
+        self.processed = 0
+        self.dropped = 0
+        self._watcher = _Watcher(self)
+        self._watched: tuple[Any, ...] = ()
+        director.system.add_observer(self._watcher)
+        self._watch_modules()
+
+    # -- control, from any thread ---------------------------------------------------------------------
+    def start(self) -> None:
+        if self._thread is not None:
+            return
+        self._thread = threading.Thread(target=self._run, name="objrec-define-worker", daemon=True)
+        self._thread.start()
+
+    def stop(self, timeout: float = 5.0) -> None:
+        """Stop the thread and close the source; safe to call twice."""
+        with self._cond:
+            self._stopping = True
+            self._cond.notify_all()
+        if self._thread is not None and self._thread is not threading.current_thread():
+            self._thread.join(timeout)
+            if self._thread.is_alive():
+                log.warning("the processing thread did not stop within %.1f s", timeout)
+        self._thread = None
+        self.director.system.remove_observer(self._watcher)
+        for module in self._watched:
+            module.remove_observer(self._watcher)
+        self._watched = ()
+        if self._source is not None:
+            self._source.close()
+            self._source = None
+
+    @property
+    def running(self) -> bool:
+        return self._thread is not None and self._thread.is_alive()
+
+    @property
+    def paused(self) -> bool:
+        return self._paused
+
+    @property
+    def ended(self) -> bool:
+        return self._ended
+
+    @property
+    def source(self) -> FrameSource | None:
+        return self._source
+
+    @property
+    def generation(self) -> int:
+        """Counts parameter and pipeline changes; each Shown carries the count in force for it."""
+        return self._generation
+
+    def set_paused(self, paused: bool) -> None:
+        with self._cond:
+            changed = paused != self._paused
+            self._paused = paused
+            self._last_read = 0.0
+            self._cond.notify_all()
+        if changed:
+            self.pausedChanged.emit(paused)
+
+    def step(self) -> None:
+        """Process exactly one new frame (pauses first)."""
+        self.set_paused(True)
+        with self._cond:
+            self._step_pending = True
+            self._cond.notify_all()
+
+    def reprocess(self) -> None:
+        """Parameters or the pipeline changed: show their effect as soon as possible."""
+        with self._cond:
+            self._generation += 1
+            self._reprocess_pending = True
+            self._cond.notify_all()
+
+    def open_source(self, spec: str, kind: str) -> None:
+        """Open a source by its spec (in the worker thread: a camera may take a while)."""
+
+        def command() -> None:
+            try:
+                source = kind_plugin(kind).open_source(spec)
+            except Exception as exc:  # SourceError, UnknownModuleError, a camera driver's own error
+                self.failed.emit(str(exc))
+                return
+            self._install(source)
+
+        self._submit(command)
+
+    def set_source(self, source: FrameSource) -> None:
+        """Use an already opened source."""
+        self._submit(lambda: self._install(source))
+
+    def call(self, function: Callable[[], Any], done: Callable[[Any], None] | None = None) -> None:
+        """Run ``function`` in the worker thread between two frames; ``done(result)`` then runs in the GUI."""
+
+        def command() -> None:
+            try:
+                with self._processing_lock:  # like a frame: never while the GUI loads a file
+                    result: Any = function()
+            except Exception as exc:
+                log.exception("a call in the processing thread failed")
+                result = exc
+            if done is not None:
+                self.callDone.emit(done, result)
+
+        self._submit(command)
+
+    def exclusive(self) -> threading.Lock:
+        """Hold this (``with worker.exclusive():``) to change modules between two frames, never during one."""
+        return self._processing_lock
+
+    def take(self) -> Shown | None:
+        """The newest result, once (the GUI calls this on resultReady)."""
+        with self._cond:
+            shown, self._latest = self._latest, None
+            self._notified = False
+        return shown
+
+    # -- the director's view (worker thread) --------------------------------------------------------------
+    def show_stages(self, results: StageResults) -> None:
+        prepared = None
+        if self.prepare is not None:
+            try:
+                prepared = self.prepare(results)
+            except Exception:
+                log.exception("preparing frame %d for display failed", results.frame.index)
+        shown = Shown(results, self._processing_generation, self._processing_started, prepared)
+        with self._cond:
+            if self._latest is not None:
+                self.dropped += 1
+            self._latest = shown
+            self.processed += 1
+            notify = not self._notified
+            self._notified = True
+        if notify:
+            self.resultReady.emit()
+
+    # -- the thread ---------------------------------------------------------------------------------------
+    def _submit(self, command: Callable[[], None]) -> None:
+        with self._cond:
+            self._commands.append(command)
+            self._cond.notify_all()
+
+    def _watch_modules(self) -> None:
+        modules = self.director.system.modules
+        for module in self._watched:
+            if not any(module is m for m in modules):
+                module.remove_observer(self._watcher)
+        for module in modules:
+            module.add_observer(self._watcher)
+        self._watched = modules
+
+    def _install(self, source: FrameSource) -> None:
+        old = self._source
+        self._source, self._iterator, self._ended, self._last_frame = source, iter(source), False, None
+        self._last_read = 0.0
+        if old is not None and old is not source:
+            old.close()
+        self.sourceOpened.emit(source.name)
+
+    def _has_work(self) -> bool:
+        if self._commands or self._step_pending:
+            return True
+        if self._reprocess_pending and self._last_frame is not None:
+            return True
+        return self._source is not None and not self._paused and not self._ended
+
+    def _paced(self) -> bool:
+        return self.fps_limit is not None and not getattr(self._source, "is_camera", False)
+
+    def _run(self) -> None:
+        while True:
+            with self._cond:
+                while not self._stopping and not self._has_work():
+                    self._cond.wait()
+                if self._stopping:
+                    return
+                commands, self._commands = self._commands, []
+            for command in commands:
+                command()
+            if self.director.system.modules != self._watched:
+                self._watch_modules()
+            frame = self._next_frame()
+            if frame is not None:
+                self._process(frame)
+
+    def _next_frame(self) -> Frame | None:
+        with self._cond:
+            if self._reprocess_pending and not self._step_pending:
+                # The frame already read, processed again now: a new one may take a while to come (a demo
+                # frame is drawn, a camera waits for its next exposure), the change should not.
+                if self._last_frame is None:
+                    self._reprocess_pending = False
+                if self._last_frame is not None or self._paused or self._ended:
+                    return self._last_frame
+            if self._source is None or self._ended or (self._paused and not self._step_pending):
+                return None
+            if self._paced() and self._last_read and not self._step_pending:
+                due = self._last_read + 1.0 / float(self.fps_limit or 1.0)
+                while not (self._stopping or self._commands or self._reprocess_pending or self._paused):
+                    remaining = due - time.perf_counter()
+                    if remaining <= 0:
+                        break
+                    self._cond.wait(remaining)
+                if self._stopping or self._commands or (self._paused and not self._step_pending):
+                    return None
+            self._step_pending = False
+            iterator = self._iterator
+        assert iterator is not None
+        self._last_read = time.perf_counter()
+        try:
+            frame = next(iterator)
+        except StopIteration:
+            self._ended = True
+            self.sourceEnded.emit(self._source.name if self._source else "")
+            return None
+        except Exception as exc:  # SourceError says what broke; anything else from a source too, not silently
+            self._ended = True
+            if not isinstance(exc, SourceError):
+                log.exception("source %s failed", self._source.name if self._source else "")
+            self.failed.emit(str(exc) if isinstance(exc, SourceError) else f"the source failed: {exc}")
+            return None
+        self._last_frame = frame
+        return frame
+
+    def _process(self, frame: Frame) -> None:
+        with self._cond:
+            self._reprocess_pending = False
+            self._processing_generation = self._generation
+        self._processing_started = time.perf_counter()
+        try:
+            with self._processing_lock:
+                self.director.process(frame)
+        except Exception as exc:  # a module that fails on some frame must not end the session
+            message = f"processing frame {frame.index} failed: {type(exc).__name__}: {exc}"
+            if message != self._last_error:
+                log.exception("%s", message)
+                self.failed.emit(message)
+            self._last_error = message
+        else:
+            self._last_error = ""

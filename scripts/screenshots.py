@@ -1,0 +1,142 @@
+"""Regenerate the screenshots of the definition GUI on the demo sources, into docs/images/.
+
+    QT_QPA_PLATFORM=offscreen .venv/bin/python scripts/screenshots.py [--out docs/images]
+
+Every picture is made the way a user would get there (Pipeline menu, panels, a mouse selection), paused on
+fixed demo frames so the pictures are the same on every run.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+import tempfile
+import time
+from collections.abc import Callable
+from pathlib import Path
+
+os.environ.setdefault("QT_QPA_PLATFORM", "offscreen")
+
+from PySide6.QtCore import QEvent, QPointF, QSettings, Qt
+from PySide6.QtGui import QMouseEvent
+from PySide6.QtWidgets import QApplication
+
+from objrec_apps.gui import DefinitionGUI, build_preset
+from objrec_core import RecognitionSystem, Rect, kind_plugin
+
+SIZE = (1400, 860)
+
+
+def wait_until(app: QApplication, condition: Callable[[], bool], timeout: float = 60.0) -> None:
+    deadline = time.monotonic() + timeout
+    while not condition():
+        if time.monotonic() > deadline:
+            raise TimeoutError("the window did not get there in time")
+        app.processEvents()
+        time.sleep(0.005)
+
+
+def settle(app: QApplication, seconds: float = 0.3) -> None:
+    end = time.monotonic() + seconds
+    while time.monotonic() < end:
+        app.processEvents()
+        time.sleep(0.01)
+
+
+def step_to(app: QApplication, gui: DefinitionGUI, index: int) -> None:
+    """Single-step until frame ``index`` is on screen."""
+    while gui.last_results is None or gui.last_results.frame.index < index:
+        shown_before = gui.last_results.frame.index if gui.last_results else -1
+        gui.worker.step()
+        wait_until(app, lambda s=shown_before: gui.last_results is not None and gui.last_results.frame.index > s)
+
+
+def hover(gui: DefinitionGUI, key: str, name: str) -> None:
+    """Put the mouse on the demo object ``name`` in the view ``key`` (its pixel readout shows)."""
+    x, y = next(o["centroid"] for o in gui.last_results.frame.truth["objects"] if o["name"] == name)
+    view = gui.stage_views.view(key)
+    pos = view.to_widget(QPointF(x + 0.5, y + 0.5))
+    event = QMouseEvent(QEvent.Type.MouseMove, pos, QPointF(view.mapToGlobal(pos.toPoint())),
+                        Qt.MouseButton.NoButton, Qt.MouseButton.NoButton, Qt.KeyboardModifier.NoModifier)
+    QApplication.sendEvent(view, event)
+
+
+def window(system: RecognitionSystem | None, settings: QSettings, mode: str, source: object = "demo") -> DefinitionGUI:
+    gui = DefinitionGUI(system, source=source, settings=settings, view_mode=mode, paused=True)
+    gui.resize(*SIZE)
+    gui.show()
+    return gui
+
+
+def save(app: QApplication, gui: DefinitionGUI, path: Path) -> None:
+    settle(app)
+    gui.grab().save(str(path))
+    print(f"wrote {path}")
+
+
+def empty_window(app: QApplication, settings: QSettings, out: Path) -> None:
+    gui = window(None, settings, "grid")
+    settle(app)
+    gui.pipeline_menu.populate()
+    save(app, gui, out / "define_empty.png")
+    gui.close()
+
+
+def hsv(app: QApplication, settings: QSettings, out: Path) -> None:
+    gui = window(build_preset("hsv"), settings, "grid")
+    step_to(app, gui, 40)
+    hover(gui, "input", "red")  # on the red disk: its BGR and HSV show in the status bar
+    save(app, gui, out / "define_hsv.png")
+    gui.system.module("colour").set_parameters(h_min=100, h_max=130)  # blue only, as a user would tune it
+    wait_until(app, lambda: gui.last_shown_generation >= gui.worker.generation)
+    gui.set_view_mode("tabs")
+    gui.stage_views.tabs.setCurrentIndex(1)
+    hover(gui, "colour", "blue")
+    save(app, gui, out / "define_hsv_blue_tabs.png")
+    gui.close()
+
+
+def feature(app: QApplication, settings: QSettings, out: Path) -> None:
+    from objrec2d import DemoScene
+
+    gui = window(build_preset("feature"), settings, "grid")
+    step_to(app, gui, 0)
+    gui.hand_selection(Rect(*DemoScene().target.reference_rect), gui.last_results)  # what a mouse drag does
+    detector = gui.system.module("features")
+    wait_until(app, lambda: detector.target is not None)
+    step_to(app, gui, 75)
+    save(app, gui, out / "define_feature.png")
+    gui.close()
+
+
+def shape(app: QApplication, settings: QSettings, out: Path) -> None:
+    source = kind_plugin("3d").open_source("demo")
+    gui = window(build_preset("shape"), settings, "grid", source=source)
+    step_to(app, gui, 0)
+    view = gui.view3d.cloud_view
+    view.camera.rotate(0.45, -0.25)  # turned a little, so depth shows
+    view.camera.zoom(0.75)
+    gui.view3d.point_size.setValue(2)  # through its spin box, as a user would
+    save(app, gui, out / "define_shape.png")
+    gui.close()
+
+
+def main() -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--out", type=Path, default=Path(__file__).resolve().parents[1] / "docs" / "images")
+    parser.add_argument("--only", choices=("empty", "hsv", "feature", "shape"), action="append")
+    args = parser.parse_args()
+    args.out.mkdir(parents=True, exist_ok=True)
+    app = QApplication.instance() or QApplication(sys.argv[:1])
+    with tempfile.TemporaryDirectory() as folder:
+        settings = QSettings(str(Path(folder) / "settings.ini"), QSettings.Format.IniFormat)
+        makers = {"empty": empty_window, "hsv": hsv, "feature": feature, "shape": shape}
+        for name in args.only or list(makers):
+            makers[name](app, settings, args.out)
+            settings.clear()
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
