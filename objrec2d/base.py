@@ -27,7 +27,13 @@ class ImageDetector(Detector):
 
 
 def as_gray(image: np.ndarray) -> np.ndarray:
-    """A single-channel view of any image: masks pass through untouched, colour is converted once."""
+    """A single-channel 8-bit view of any image: masks pass through untouched, colour is converted once,
+    boolean or float masks from a plug-in filter become 0/255."""
+    if image.dtype != np.uint8:
+        if image.dtype == np.bool_ or image.ndim == 2 or (image.ndim == 3 and image.shape[2] == 1):
+            image = np.where(image.reshape(image.shape[:2]) > 0, np.uint8(255), np.uint8(0))
+        else:
+            image = cv2.convertScaleAbs(image)
     if image.ndim == 2:
         return image
     if image.ndim == 3 and image.shape[2] == 1:

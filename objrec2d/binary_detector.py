@@ -2,10 +2,13 @@
 
 from __future__ import annotations
 
+from collections.abc import Mapping
+from typing import Any
+
 import cv2
 import numpy as np
 
-from objrec_core import Float
+from objrec_core import Float, ParameterError
 
 from .base import ImageDetector, as_gray
 from .messages import DetectedObject2D, Polygon
@@ -19,6 +22,15 @@ class BinaryDetector(ImageDetector):
     max_contour_length = Float(
         5000.0, "Longest outline kept, in pixels; drops the whole-image blob", min=0.0, max=20000.0, step=1.0
     )
+
+    def check_values(self, values: Mapping[str, Any]) -> None:
+        if values["min_contour_length"] > values["max_contour_length"]:
+            raise ParameterError(
+                self.label,
+                "min_contour_length",
+                values["min_contour_length"],
+                f"above max_contour_length {values['max_contour_length']:g}: nothing could ever be found",
+            )
 
     def detect(self, frame: np.ndarray) -> list[DetectedObject2D]:
         p = self.params

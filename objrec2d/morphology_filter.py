@@ -36,18 +36,17 @@ class MorphologyFilter(ImageFilter):
     kernel_shape = Choice("rect", list(SHAPES), "Shape of the structuring element")
 
     def __init__(self, id: str | None = None, **parameters: object) -> None:
-        self._kernel: np.ndarray | None = None
+        self._kernel: tuple[int, str, np.ndarray] | None = None
         super().__init__(id, **parameters)
 
-    def parameters_changed(self, changed: set[str]) -> None:
-        if changed & {"kernel_size", "kernel_shape"}:
-            self._kernel = None
-
     def _kernel_for(self, size: int, shape: str) -> np.ndarray:
-        kernel = self._kernel
-        if kernel is None or kernel.shape[0] != size:
-            kernel = cv2.getStructuringElement(self.SHAPES[shape], (size, size))
-            self._kernel = kernel
+        """The structuring element for this frame's snapshot, cached with the values it was made for, so a
+        change from another thread can never leave a kernel of the wrong shape in use."""
+        cached = self._kernel
+        if cached is not None and cached[0] == size and cached[1] == shape:
+            return cached[2]
+        kernel = cv2.getStructuringElement(self.SHAPES[shape], (size, size))
+        self._kernel = (size, shape, kernel)
         return kernel
 
     def filter(self, frame: np.ndarray) -> np.ndarray:

@@ -60,8 +60,12 @@ class FolderSource(FrameSource):
     def __init__(self, path: str | Path) -> None:
         self.path = Path(path)
         self.name = str(path)
+        try:
+            entries = list(self.path.iterdir())
+        except OSError as exc:
+            raise SourceError(f"{path}: cannot list the folder: {exc.strerror or exc}") from None
         self.files = sorted(
-            (p for p in self.path.iterdir() if p.suffix.lower() in IMAGE_SUFFIXES and p.is_file()), key=_natural_key
+            (p for p in entries if p.suffix.lower() in IMAGE_SUFFIXES and p.is_file()), key=_natural_key
         )
         if not self.files:
             raise SourceError(f"{path}: folder holds no images ({', '.join(sorted(IMAGE_SUFFIXES))})")
@@ -79,6 +83,8 @@ class FolderSource(FrameSource):
                 self.skipped.append(file)
                 continue
             yield Frame(image, file.stat().st_mtime, index, str(file))
+        if len(self.skipped) == len(self.files):
+            raise SourceError(f"{self.name}: none of its {len(self.files)} images could be read")
 
 
 class CaptureSource(FrameSource):
@@ -103,7 +109,10 @@ class CaptureSource(FrameSource):
         self.retry_delay = retry_delay
         self._target = target
         self._opener = opener
-        self._capture = opener(target)
+        try:
+            self._capture = opener(target)
+        except (cv2.error, OverflowError, ValueError) as exc:
+            raise SourceError(f"{name}: cannot open: {str(exc).strip().splitlines()[-1]}") from None
         if not self._capture.isOpened():
             what = "camera" if is_camera else "video file"
             raise SourceError(f"{name}: cannot open {what}")
@@ -137,6 +146,10 @@ class CaptureSource(FrameSource):
         while True:
             image = self._read()
             if image is None:
+                if self._length is not None and index < self._length - 1:
+                    raise SourceError(
+                        f"{self.name}: frame {index} of {self._length} cannot be decoded (truncated or corrupt)"
+                    )
                 return
             stamp = time.time() if self.is_camera else start + index / self._fps
             yield Frame(image, stamp, index, self.name)
@@ -170,6 +183,8 @@ class DemoSource(FrameSource):
 def open_source(spec: str) -> FrameSource:
     """Open the source a user named: ``demo``, ``demo:SEED``, ``camera:N``, an image, a video or a folder."""
     spec = spec.strip()
+    if not spec:
+        raise SourceError("no source given (sources: demo, camera:N, an image, a video, a folder)")
     if spec == "demo" or spec.startswith("demo:"):
         seed_text = spec[5:] or "0"
         if not seed_text.isdigit():

@@ -8,6 +8,7 @@ import cv2
 import numpy as np
 
 VIDEO_CODECS = {".avi": "MJPG", ".mp4": "mp4v", ".mkv": "MJPG", ".mov": "mp4v"}
+IMAGE_SUFFIXES = {".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff", ".webp"}
 
 
 class AnnotationError(RuntimeError):
@@ -22,6 +23,10 @@ class AnnotationWriter:
         self._video: cv2.VideoWriter | None = None
         self._size: tuple[int, int] | None = None
         self.is_video = self.path.suffix.lower() in VIDEO_CODECS
+        if self.path.suffix.lower() in IMAGE_SUFFIXES:
+            raise AnnotationError(
+                f"{self.path}: names one picture; give a folder (one PNG per frame) or a video (.avi, .mp4)"
+            )
         if self.is_video:
             if not self.path.parent.is_dir():
                 raise AnnotationError(f"{self.path}: folder {self.path.parent} does not exist")

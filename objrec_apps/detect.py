@@ -7,6 +7,8 @@ while running (a source that breaks mid-stream); 2 a user mistake (bad parameter
 from __future__ import annotations
 
 import argparse
+import contextlib
+import itertools
 import logging
 import os
 import signal
@@ -111,9 +113,8 @@ def _frames(source: FrameSource, limit: int | None, progress: bool | None) -> It
 
         bar = tqdm(total=total, unit="frame", file=sys.stderr, disable=None if progress is None else False)
     try:
-        for count, frame in enumerate(source):
-            if limit is not None and count >= limit:
-                break
+        # islice: never pull a frame past the limit (a camera could fail on it after the work was done)
+        for frame in itertools.islice(source, limit):
             yield frame
             if bar is not None:
                 bar.update(1)
@@ -167,14 +168,20 @@ def run(args: argparse.Namespace, stdout: IO[str]) -> int:
                 break
     except KeyboardInterrupt:
         log.warning("interrupted after %d frames", frames)
+    except BrokenPipeError:
+        raise
     except (SourceError, AnnotationError) as exc:
         print(f"{PROG}: error: {exc}", file=sys.stderr)
+        return 1
+    except OSError as exc:  # the output went away: a full disk, a closed device
+        print(f"{PROG}: error: writing {args.output or 'the output'}: {exc.strerror or exc}", file=sys.stderr)
         return 1
     finally:
         if writer is not None:
             writer.close()
         if output is not None:
-            output.close()
+            with contextlib.suppress(OSError):  # already reported above
+                output.close()
         source.close()
         for sig, handler in previous.items():
             signal.signal(sig, handler)

@@ -6,6 +6,7 @@
 
 from __future__ import annotations
 
+import itertools
 import logging
 import threading
 import time
@@ -85,9 +86,17 @@ class _Director:
             raise PipelineError("the pipeline has no detector")
 
     @staticmethod
-    def _frames(source: Iterable[Any]) -> Iterator[Frame]:
+    def _frames(
+        source: Iterable[Any], max_frames: int | None, stop: threading.Event | None
+    ) -> Iterator[Frame]:
+        """Frames until ``max_frames`` or ``stop``, never pulling one more than is processed: a camera asked
+        for one frame too many could fail after the work was done."""
+        if max_frames is not None:
+            source = itertools.islice(source, max_frames)
         for index, item in enumerate(source):
             yield item if isinstance(item, Frame) else Frame(item, index=index)
+            if stop is not None and stop.is_set():
+                return
 
 
 class DetectionDirector(_Director):
@@ -124,9 +133,9 @@ class DetectionDirector(_Director):
     ) -> Iterator[DetectedObjectArray]:
         """Process frames until the source ends, ``max_frames`` are done or ``stop`` is set."""
         self._check_runnable()
-        for count, frame in enumerate(self._frames(source)):
-            if (max_frames is not None and count >= max_frames) or (stop is not None and stop.is_set()):
-                return
+        if stop is not None and stop.is_set():
+            return
+        for frame in self._frames(source, max_frames, stop):
             yield self.process(frame)
 
 
@@ -159,22 +168,31 @@ class DefinitionDirector(_Director):
     def run(
         self, source: Iterable[Any], max_frames: int | None = None, stop: threading.Event | None = None
     ) -> Iterator[StageResults]:
-        for count, frame in enumerate(self._frames(source)):
-            if (max_frames is not None and count >= max_frames) or (stop is not None and stop.is_set()):
-                return
+        if stop is not None and stop.is_set():
+            return
+        for frame in self._frames(source, max_frames, stop):
             yield self.process(frame)
 
     @property
     def last_frame(self) -> Frame | None:
         return self._last_frame
 
-    def process_area_selection(self, rect: Rect, frame: Any | None = None) -> SelectionResult:
-        """Give a selection to every detector: with the frame each one saw last, or ``frame`` if given."""
+    def process_area_selection(
+        self, rect: Rect, frame: Any | None = None, results: StageResults | None = None
+    ) -> SelectionResult:
+        """Give a selection to every detector with the frame it saw: in ``results`` (the frame a person drew
+        on, which a view may show after newer ones were processed), else in the last frame processed; or
+        ``frame`` itself, where given."""
         outcome = SelectionResult()
+        if results is not None:
+            inputs = {s.id: s.output for s in results.stages if s.role == "detector"}
+            missing = "it was not in the pipeline when this frame was processed"
+        else:
+            inputs, missing = self._last_inputs, "no frame has been processed yet"
         for detector in self.system.detectors:
-            seen = frame if frame is not None else self._last_inputs.get(detector.id)
+            seen = frame if frame is not None else inputs.get(detector.id)
             if seen is None:
-                outcome.refused[detector.id] = "no frame has been processed yet"
+                outcome.refused[detector.id] = missing
                 continue
             try:
                 detector.process_area_selection(rect, seen)

@@ -65,7 +65,10 @@ class Detector(Parametrizable):
 
     @object_name.setter
     def object_name(self, name: str | None) -> None:
-        self.own_object_name = name
+        """A name of this detector's own (None: the system's); observers hear of the change."""
+        if name != self.own_object_name:
+            self.own_object_name = name
+            self.notify()
 
     @abstractmethod
     def detect(self, frame: Any) -> list[Any]:

@@ -8,8 +8,20 @@ from __future__ import annotations
 
 import math
 import numbers
+import reprlib
 from collections.abc import Sequence
 from typing import Any
+
+_short = reprlib.Repr()
+_short.maxstring = 60
+_short.maxother = 60
+_short.maxlist = _short.maxtuple = _short.maxdict = 4
+_short.maxlevel = 2
+
+
+def short_repr(value: object) -> str:
+    """A value as error messages show it: never the whole of a huge or deeply nested one."""
+    return _short.repr(value)
 
 
 class ParameterError(ValueError):
@@ -20,7 +32,7 @@ class ParameterError(ValueError):
         self.parameter = parameter
         self.value = value
         self.rule = rule
-        super().__init__(f"{module}: parameter {parameter}={value!r} is invalid: {rule}")
+        super().__init__(f"{module}: parameter {parameter}={short_repr(value)} is invalid: {rule}")
 
 
 class Parameter:
@@ -119,7 +131,14 @@ class Float(_Number):
 
     def validate(self, value: Any, module: str) -> float:
         if isinstance(value, bool) or not isinstance(value, numbers.Real):
-            raise self._fail(module, value, f"expected a number, got {type(value).__name__}")
+            hint = ""
+            if isinstance(value, str):
+                try:
+                    float(value)
+                    hint = " (YAML reads 1e3 as text: write 1.0e3 or 1000.0)"
+                except ValueError:
+                    pass
+            raise self._fail(module, value, f"expected a number, got {type(value).__name__}{hint}")
         value = float(value)
         if not math.isfinite(value):
             raise self._fail(module, value, "expected a finite number")
@@ -164,6 +183,6 @@ class Choice(Parameter):
         return "one of " + ", ".join(self.choices)
 
     def validate(self, value: Any, module: str) -> str:
-        if value not in self.choices:
+        if not isinstance(value, str) or value not in self.choices:
             raise self._fail(module, value, self.describe())
-        return value
+        return str(value)  # a str subclass (numpy.str_) would not save as YAML

@@ -121,6 +121,10 @@ class Parametrizable(Subject, metaclass=ABCMeta):
             clean[name] = spec.validate(value, self.label)
         return clean
 
+    def check_values(self, values: Mapping[str, Any]) -> None:
+        """Hook: rules between parameters (a minimum above its maximum), given every value that would be in
+        force. Raise ParameterError to refuse; called by ``set_parameters`` and when a file is loaded."""
+
     def set_parameters(self, **values: Any) -> None:
         """Validate every value first, then apply them together and notify observers once."""
         clean = self.validate_parameters(values)
@@ -128,7 +132,9 @@ class Parametrizable(Subject, metaclass=ABCMeta):
             changed = {n for n, v in clean.items() if self._values[n] != v}
             if not changed:
                 return
-            self._values = MappingProxyType({**self._values, **clean})
+            merged = {**self._values, **clean}
+            self.check_values(merged)
+            self._values = MappingProxyType(merged)
             self.parameters_changed(changed)
         self.notify()
 
@@ -161,9 +167,18 @@ class Parametrizable(Subject, metaclass=ABCMeta):
     def apply_state(self, prepared: Any) -> None:
         """Hook: install what ``prepare_state`` returned. Must not fail for prepared input."""
 
-    def load(self, values: Mapping[str, Any], prepared_state: Any) -> None:
-        """Replace every value and the state at once (used by ParameterStorage after validation)."""
+    def load(self, values: Mapping[str, Any], prepared_state: Any, notify: bool = True) -> None:
+        """Replace every value and the state at once (used by ParameterStorage after validation).
+
+        The state is applied first, then ``parameters_changed`` hears of every value that changed, as after
+        ``set_parameters``. ``notify=False`` lets the storage notify once the whole file is applied.
+        """
         with self._lock:
-            self._values = MappingProxyType({**{n: p.default for n, p in self._declared.items()}, **values})
+            complete = {**{n: p.default for n, p in self._declared.items()}, **values}
+            changed = {n for n, v in complete.items() if self._values[n] != v}
+            self._values = MappingProxyType(complete)
             self.apply_state(prepared_state)
-        self.notify()
+            if changed:
+                self.parameters_changed(changed)
+        if notify:
+            self.notify()

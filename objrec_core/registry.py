@@ -18,7 +18,7 @@ import logging
 import threading
 from importlib.metadata import EntryPoint, entry_points
 from types import ModuleType
-from typing import Any, TypeVar
+from typing import TypeVar
 
 from .parametrizable import Parametrizable
 
@@ -51,16 +51,15 @@ def refresh() -> None:
         _kinds.clear()
 
 
-def register_module(cls: T | None = None, *, name: str | None = None) -> Any:
-    """Register a module type (usable as a decorator). Entry points are the way for installed packages;
-    this is for scripts and tests."""
+def register_module(cls: T) -> T:
+    """Register a module type under its ``type_name`` (usable as a decorator). Entry points are the way
+    for installed packages; this is for scripts and tests. To use another name in files, set ``type_name``
+    on the class."""
 
     def add(klass: T) -> T:
         if not (isinstance(klass, type) and issubclass(klass, Parametrizable)):
             raise TypeError(f"{klass!r} is not a Parametrizable subclass")
-        type_name = name or klass.type_name
-        if type_name != klass.type_name:
-            klass.type_name = type_name
+        type_name = klass.type_name
         with _lock:
             previous = _registered.get(type_name)
             if previous is not None and previous is not klass:
@@ -68,7 +67,7 @@ def register_module(cls: T | None = None, *, name: str | None = None) -> Any:
             _registered[type_name] = klass
         return klass
 
-    return add(cls) if cls is not None else add
+    return add(cls)
 
 
 def unregister_module(name: str) -> None:

@@ -19,7 +19,7 @@ from typing import Any
 import yaml
 
 from .modules import Detector
-from .parameters import ParameterError
+from .parameters import ParameterError, short_repr
 from .parametrizable import Parametrizable, check_module_id
 from .registry import UnknownModuleError, module_type
 from .system import PipelineError, RecognitionSystem
@@ -53,6 +53,33 @@ class _Entry:
     module: Parametrizable
 
 
+class _StrictLoader(yaml.SafeLoader):
+    """``yaml.SafeLoader`` that also refuses what a parameter file never needs and could hide a mistake or
+    an attack: duplicate keys (the first would be silently dropped) and aliases (an alias bomb expands a
+    small file into gigabytes)."""
+
+    def compose_node(self, parent: Any, index: Any) -> Any:
+        if self.check_event(yaml.AliasEvent):
+            event = self.peek_event()
+            raise yaml.composer.ComposerError(
+                None, None, "aliases (*name) are not allowed in parameter files", event.start_mark
+            )
+        return super().compose_node(parent, index)
+
+    def construct_mapping(self, node: Any, deep: bool = False) -> Any:
+        seen: set[Any] = set()
+        for key_node, _ in node.value:
+            key = self.construct_object(key_node, deep=True)
+            if isinstance(key, list | dict):
+                continue  # unhashable: the base class reports it
+            if key in seen:
+                raise yaml.constructor.ConstructorError(
+                    None, None, f"key {short_repr(key)} appears twice", key_node.start_mark
+                )
+            seen.add(key)
+        return super().construct_mapping(node, deep)
+
+
 def _read_document(path: Path) -> dict[str, Any]:
     try:
         text = path.read_text(encoding="utf-8")
@@ -61,7 +88,9 @@ def _read_document(path: Path) -> dict[str, Any]:
     except (OSError, UnicodeDecodeError) as exc:
         raise ParameterFileError(path, "", f"cannot be read: {exc}") from None
     try:
-        doc = yaml.safe_load(text)
+        doc = yaml.load(text, Loader=_StrictLoader)  # yaml.safe_load with the stricter SafeLoader above
+    except RecursionError:
+        raise ParameterFileError(path, "", "not valid YAML: nested too deeply") from None
     except yaml.MarkedYAMLError as exc:
         mark = exc.problem_mark or exc.context_mark
         where = f"line {mark.line + 1}, column {mark.column + 1}" if mark else ""
@@ -78,7 +107,7 @@ def _read_document(path: Path) -> dict[str, Any]:
 
 def _require(path: Path, key: str, value: Any, kind: type | tuple[type, ...], what: str) -> Any:
     if (isinstance(value, bool) and kind is not bool) or not isinstance(value, kind):
-        raise ParameterFileError(path, key, f"expected {what}, found {value!r}")
+        raise ParameterFileError(path, key, f"expected {what}, found {short_repr(value)}")
     return value
 
 
@@ -126,13 +155,15 @@ class ParameterStorage:
     def save_parameters(self, path: str | os.PathLike[str]) -> None:
         """Write the file atomically: a temporary file in the same folder, then ``os.replace``."""
         path = Path(path)
+        if not self.system.modules:
+            raise ParameterFileError(path, "pipeline", "the pipeline is empty; add a module before saving")
         if self.system.kind is None:
-            raise ParameterFileError(path, "kind", "the pipeline is empty; add a module before saving")
+            raise ParameterFileError(path, "kind", "no module declares its data kind (2d or 3d)")
         doc = self.to_document()
         try:
             text = yaml.safe_dump(doc, sort_keys=False, allow_unicode=True, width=100)
         except yaml.representer.RepresenterError as exc:
-            raise ParameterFileError(path, "", f"a module's state cannot be written as YAML: {exc}") from None
+            raise ParameterFileError(path, "", f"a value cannot be written as YAML: {exc}") from None
         write_atomically(path, text)
 
     # -- loading -----------------------------------------------------------------------------------------
@@ -162,19 +193,20 @@ class ParameterStorage:
         self._apply(doc, entries, replace=True)
 
     def _apply(self, doc: dict[str, Any], entries: list[_Entry], replace: bool) -> None:
-        for entry in entries:
-            module = entry.module
-            module.load(entry.values, entry.prepared_state)
-            if isinstance(module, Detector):
-                module.own_object_name = entry.object_name
+        """Apply a validated file as one change: observers hear of it only when every module has it."""
         system = self.system
-        system.description = doc.get("description", "")
-        system.object_name = doc.get("object_name", "object")
-        if replace:
-            system._kind = doc["kind"]
-            system.set_modules([e.module for e in entries])
-        else:
-            system.notify()
+        with system.lock:
+            for entry in entries:
+                module = entry.module
+                module.load(entry.values, entry.prepared_state, notify=False)
+                if isinstance(module, Detector):
+                    module.own_object_name = entry.object_name
+            system.set_identity(doc.get("object_name", "object"), doc.get("description", ""), notify=False)
+            if replace:
+                system.set_modules([e.module for e in entries], kind=doc["kind"], notify=False)
+        for entry in entries:
+            entry.module.notify()
+        system.notify()
 
     def _validate(self, path: Path, existing: tuple[Parametrizable, ...] | None) -> tuple[dict[str, Any], list[_Entry]]:
         doc = _read_document(path)
@@ -193,7 +225,7 @@ class ParameterStorage:
             raise ParameterFileError(path, "format_version", f"{version} is not a format version")
         kind = doc["kind"]
         if kind not in KINDS:
-            raise ParameterFileError(path, "kind", f"expected one of {', '.join(KINDS)}, found {kind!r}")
+            raise ParameterFileError(path, "kind", f"expected one of {', '.join(KINDS)}, found {short_repr(kind)}")
         _require(path, "object_name", doc.get("object_name", "object"), str, "text")
         _require(path, "description", doc.get("description", ""), str, "text")
         pipeline = _require(path, "pipeline", doc["pipeline"], list, "a list of modules")
@@ -214,7 +246,9 @@ class ParameterStorage:
     ) -> _Entry:
         at = f"pipeline[{index}]"
         if not isinstance(raw, dict):
-            raise ParameterFileError(path, at, f"expected a mapping with type, id and parameters, found {raw!r}")
+            raise ParameterFileError(
+                path, at, f"expected a mapping with type, id and parameters, found {short_repr(raw)}"
+            )
         unknown = sorted(set(map(str, raw)) - _ENTRY_KEYS)
         if unknown:
             raise ParameterFileError(
@@ -239,9 +273,11 @@ class ParameterStorage:
             if not issubclass(klass, Detector):
                 raise ParameterFileError(path, f"{at}.object_name", "only detectors name the objects they find")
             _require(path, f"{at}.object_name", object_name, str, "text")
-        parameters = raw.get("parameters") or {}
+        parameters = raw.get("parameters")
+        if parameters is None:
+            parameters = {}
         if not isinstance(parameters, dict):
-            raise ParameterFileError(path, f"{at}.parameters", f"expected a mapping, found {parameters!r}")
+            raise ParameterFileError(path, f"{at}.parameters", f"expected a mapping, found {short_repr(parameters)}")
         module = existing[index] if existing and index < len(existing) else None
         if module is None or type(module) is not klass or module.id != module_id:
             module = klass(module_id)  # new, or a stand-in that shows the mismatch after validation
@@ -251,8 +287,16 @@ class ParameterStorage:
             try:
                 values.update(probe.validate_parameters({name: value}))
             except ParameterError as exc:
-                raise ParameterFileError(path, f"{at}.parameters.{name}", exc.rule) from None
+                raise ParameterFileError(
+                    path, f"{at}.parameters.{name}", f"{short_repr(value)} is invalid: {exc.rule}"
+                ) from None
         complete = {**{p.name: p.default for p in klass.parameter_specs()}, **values}
+        try:
+            probe.check_values(complete)
+        except ParameterError as exc:
+            raise ParameterFileError(
+                path, f"{at}.parameters.{exc.parameter}", f"{short_repr(exc.value)} is invalid: {exc.rule}"
+            ) from None
         try:
             prepared = probe.prepare_state(raw.get("state"), complete)
         except (ValueError, TypeError, KeyError) as exc:
@@ -262,11 +306,14 @@ class ParameterStorage:
 
 def write_atomically(path: Path, text: str) -> None:
     """Write ``text`` to ``path`` so that a reader (or a crash) sees the old file or the new one, never half."""
-    folder = path.parent if str(path.parent) else Path()
+    shown = path
+    path = Path(os.path.realpath(path))  # a link keeps pointing at the file it shares
+    folder = path.parent
     if not folder.is_dir():
-        raise ParameterFileError(path, "", f"cannot save: folder {folder} does not exist")
-    fd, tmp_name = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=folder)
+        raise ParameterFileError(shown, "", f"cannot save: folder {shown.parent} does not exist")
+    tmp_name = ""
     try:
+        fd, tmp_name = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=folder)
         with os.fdopen(fd, "w", encoding="utf-8") as stream:
             stream.write(text)
             stream.flush()
@@ -277,12 +324,14 @@ def write_atomically(path: Path, text: str) -> None:
             os.chmod(tmp_name, 0o644)
         os.replace(tmp_name, path)
     except OSError as exc:
-        with contextlib.suppress(OSError):
-            os.unlink(tmp_name)
-        raise ParameterFileError(path, "", f"cannot save: {exc}") from None
+        if tmp_name:
+            with contextlib.suppress(OSError):
+                os.unlink(tmp_name)
+        raise ParameterFileError(shown, "", f"cannot save: {exc.strerror or exc}") from None
     except BaseException:
-        with contextlib.suppress(OSError):
-            os.unlink(tmp_name)
+        if tmp_name:
+            with contextlib.suppress(OSError):
+                os.unlink(tmp_name)
         raise
 
 

@@ -54,10 +54,15 @@ class RecognitionSystem(Subject):
         super().__init__()
         self._lock = threading.RLock()
         self._object_name = object_name
-        self.description = description
+        self._description = description
         self._kind = kind
         self._modules: tuple[Parametrizable, ...] = ()
-        self.set_modules(list(modules))
+        self.set_modules(list(modules), notify=False)
+
+    @property
+    def lock(self) -> threading.RLock:
+        """Held while the pipeline changes; hold it to make several changes one."""
+        return self._lock
 
     # -- structure ------------------------------------------------------------------------------------
     @property
@@ -67,9 +72,27 @@ class RecognitionSystem(Subject):
 
     @object_name.setter
     def object_name(self, name: str) -> None:
-        self._object_name = name
-        for d in self.detectors:
-            d.system_object_name = name
+        self.set_identity(name, self._description)
+
+    @property
+    def description(self) -> str:
+        return self._description
+
+    @description.setter
+    def description(self, text: str) -> None:
+        self.set_identity(self._object_name, text)
+
+    def set_identity(self, object_name: str, description: str, notify: bool = True) -> None:
+        """Set the object's name and the description; observers hear of a change."""
+        if not isinstance(object_name, str) or not object_name.strip():
+            raise ValueError(f"the object name must be non-empty text, got {object_name!r}")
+        changed = (object_name, description) != (self._object_name, self._description)
+        with self._lock:
+            self._object_name, self._description = object_name, description
+            for d in self.detectors:
+                d.system_object_name = object_name
+        if changed and notify:
+            self.notify()
 
     @property
     def modules(self) -> tuple[Parametrizable, ...]:
@@ -119,15 +142,19 @@ class RecognitionSystem(Subject):
         if len(array_types) > 1:
             raise PipelineError("detectors in one pipeline must report the same message type")
 
-    def set_modules(self, modules: Sequence[Parametrizable]) -> None:
+    def set_modules(self, modules: Sequence[Parametrizable], kind: str | None = None, notify: bool = True) -> None:
+        """Replace the pipeline (and, where given, the data kind) at once."""
         modules = tuple(modules)
-        self.check_modules(modules, self._kind)
+        self.check_modules(modules, kind or self._kind)
         with self._lock:
             for m in modules:
                 if isinstance(m, Detector):
                     m.system_object_name = self._object_name
             self._modules = modules
-        self.notify()
+            if kind is not None:
+                self._kind = kind
+        if notify:
+            self.notify()
 
     def add_module(self, module: Parametrizable, index: int | None = None) -> None:
         with self._lock:

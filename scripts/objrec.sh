@@ -20,22 +20,40 @@ APT_PACKAGES=(python3 python3-venv python3-pip libusb-1.0-0 libgl1 libegl1 libxk
               libxcb-shape0 libxcb-xkb1 libxkbcommon-x11-0)
 install_system_packages() {
   command -v dpkg-query >/dev/null 2>&1 || { say "not a Debian/Ubuntu system: install ${APT_PACKAGES[*]} yourself"; return 0; }
-  local missing=()
+  local missing=() p
   for p in "${APT_PACKAGES[@]}"; do
-    dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+    installed "$p" || missing+=("$p")
   done
   [ ${#missing[@]} -eq 0 ] && return 0
   local sudo=""
-  [ "$(id -u)" -ne 0 ] && sudo="sudo"
+  if [ "$(id -u)" -ne 0 ]; then
+    command -v sudo >/dev/null 2>&1 || { say "need root or sudo to install: ${missing[*]}"; exit 1; }
+    sudo="sudo"
+  fi
   say "installing system packages: ${missing[*]}"
-  $sudo apt-get update -qq
-  DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
+  $sudo env DEBIAN_FRONTEND=noninteractive apt-get update -qq
+  # Newer releases renamed some libraries (libglib2.0-0 -> libglib2.0-0t64): take what this one has.
+  local resolved=()
+  for p in "${missing[@]}"; do
+    if apt-cache show "${p}t64" >/dev/null 2>&1; then resolved+=("${p}t64"); else resolved+=("$p"); fi
+  done
+  $sudo env DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends "${resolved[@]}" >/dev/null
+}
+
+# Installed under its name or its t64-renamed successor.
+installed() {
+  local name
+  for name in "$1" "${1}t64"; do
+    dpkg-query -W -f='${Status}' "$name" 2>/dev/null | grep -q "install ok installed" && return 0
+  done
+  return 1
 }
 
 install_python_packages() {
-  if [ ! -x "$VENV/bin/python" ]; then
+  # A venv left half-made (no pip: ensurepip missing, or an interrupted run) is made again.
+  if ! "$VENV/bin/python" -m pip --version >/dev/null 2>&1; then
     say "creating the virtual environment in $VENV"
-    "$PY" -m venv "$VENV"
+    "$PY" -m venv --clear "$VENV"
   fi
   local stamp="$VENV/.objrec-setup"
   local want

@@ -27,7 +27,6 @@ from objrec_core import (
     FrameSource,
     RecognitionSystem,
     Rect,
-    SelectionRefused,
     SelectionResult,
     StageResults,
     kind_plugin,
@@ -290,22 +289,9 @@ class DefinitionGUI(QMainWindow):
     def give_selection_to_detectors(self, rect: Rect, results: StageResults) -> None:
         """The default callback: each detector gets the rectangle with the frame it saw when the user drew it
         (its own input in that frame's results), in the worker thread, between two frames."""
-        inputs = {s.id: s.output for s in results.stages if s.role == "detector"}
 
         def select() -> SelectionResult:
-            outcome = SelectionResult()
-            for detector in self.system.detectors:
-                seen = inputs.get(detector.id)
-                if seen is None:
-                    outcome.refused[detector.id] = "it was not in the pipeline when this frame was processed"
-                    continue
-                try:
-                    detector.process_area_selection(rect, seen)
-                except SelectionRefused as exc:
-                    outcome.refused[detector.id] = str(exc)
-                else:
-                    outcome.accepted.append(detector.id)
-            return outcome
+            return self.director.process_area_selection(rect, results=results)
 
         self.worker.call(select, lambda outcome: self._selection_done(rect, outcome))
 

@@ -62,7 +62,7 @@ def test_bad_parameter_file_names_file_and_key(project_root, tmp_path):
     bad.write_text((project_root / "params" / "hsv_demo.yaml").read_text().replace("iterations: 1", "iterations: many"))
     result = run([str(bad), "--source", "demo"], project_root)
     assert result.returncode == 2
-    assert f"{bad}: pipeline[1].parameters.iterations: expected an integer" in result.stderr
+    assert f"{bad}: pipeline[1].parameters.iterations: 'many' is invalid: expected an integer" in result.stderr
     assert "Traceback" not in result.stderr
 
 
@@ -129,3 +129,18 @@ def test_a_signal_stops_cleanly_with_everything_flushed(project_root, sig):
         json.loads(line)  # every line complete
     assert "Traceback" not in err
     assert f"{len(lines)} frames" in err
+
+
+def test_a_picture_as_annotation_target_is_refused(project_root, tmp_path):
+    result = run(
+        ["params/hsv_demo.yaml", "-s", "demo", "-n", "1", "--annotate", str(tmp_path / "one.png")], project_root
+    )
+    assert result.returncode == 2
+    assert "give a folder" in result.stderr and "Traceback" not in result.stderr
+    assert not (tmp_path / "one.png").exists()
+
+
+def test_a_full_disk_is_one_error_line(project_root):
+    result = run(["params/hsv_demo.yaml", "-s", "demo", "-n", "3", "-o", "/dev/full"], project_root)
+    assert result.returncode == 1
+    assert "No space left on device" in result.stderr and "Traceback" not in result.stderr

@@ -127,3 +127,16 @@ def test_seed_style_wiring():
     director.add_filter(MorphologyFilter())
     assert [m.type_name for m in director.system.modules] == ["HSVFilter", "MorphologyFilter", "BinaryDetector"]
     assert len(director.process(picture()).objects) == 1
+
+
+def test_max_frames_pulls_no_frame_beyond_the_limit():
+    pulled = []
+
+    def camera():
+        for i in range(100):
+            pulled.append(i)
+            yield picture()
+
+    director = DetectionDirector(RecognitionSystem([BinaryDetector()]))
+    assert len(list(director.run(camera(), max_frames=2))) == 2
+    assert pulled == [0, 1]

@@ -39,7 +39,8 @@ def patch_dialogs(monkeypatch, open_path: Path | None = None, save_path: Path | 
 def change_every_value_through_the_panels(gui) -> None:
     """Give every parameter of every module a valid non-default value, as a user would: via its widget."""
     for panel in gui.panels.panels:
-        for name, editor in panel.editors.items():
+        # Backwards, so each maximum moves before its minimum: min_contour_length may not pass its maximum.
+        for name, editor in reversed(panel.editors.items()):
             before = panel.module.get_parameters()[name]
             if isinstance(editor, NumberEditor):
                 if editor.slider is not None:

@@ -56,6 +56,16 @@ def test_single_image_and_errors(tmp_path):
         open_source("camera:front")
     with pytest.raises(SourceError, match="seed"):
         open_source("demo:x")
+    with pytest.raises(SourceError, match="no source given"):
+        open_source("  ")
+    with pytest.raises(SourceError, match="camera:99999999999999999999: cannot open"):
+        open_source("camera:99999999999999999999")
+    unreadable = tmp_path / "unreadable"
+    write_images(unreadable, 2)
+    for f in unreadable.iterdir():
+        f.write_bytes(b"junk")
+    with pytest.raises(SourceError, match="none of its 2 images could be read"):
+        list(open_source(str(unreadable)))
 
 
 def test_video_file_is_read_to_its_end(tmp_path):
@@ -72,9 +82,30 @@ def test_video_file_is_read_to_its_end(tmp_path):
 
 
 @pytest.mark.realdata
-def test_real_video_file(shared_data):
-    frames = list(open_source(str(shared_data / "images" / "tree.avi")))
-    assert len(frames) > 10 and frames[0].data.ndim == 3
+def test_real_video_file_and_its_undecodable_tail(shared_data):
+    # tree.avi (Cinepak) declares 444 frames; OpenCV's FFmpeg decodes the first 68. The rest must be
+    # reported, not passed over as a normal end of file.
+    frames = []
+    with pytest.raises(SourceError, match=r"tree\.avi: frame (\d+) of 444 cannot be decoded") as info:
+        for frame in open_source(str(shared_data / "images" / "tree.avi")):
+            frames.append(frame)
+    assert len(frames) > 10 and frames[0].data.shape[2] == 3
+    assert f"frame {len(frames)} of 444" in str(info.value)
+
+
+def test_truncated_video_is_reported(tmp_path):
+    path = tmp_path / "cut.avi"
+    writer = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*"MJPG"), 10, (64, 48))
+    for i in range(40):
+        writer.write(np.random.default_rng(i).integers(0, 255, (48, 64, 3), dtype=np.uint8))
+    writer.release()
+    data = path.read_bytes()
+    path.write_bytes(data[: len(data) // 2])
+    frames = []
+    with pytest.raises(SourceError, match=r"cut\.avi: frame \d+ of 40 cannot be decoded"):
+        for frame in open_source(str(path)):
+            frames.append(frame)
+    assert 5 < len(frames) < 40
 
 
 class FlakyCapture:
