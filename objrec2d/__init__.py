@@ -13,7 +13,9 @@ Build a pipeline in a script::
 from .annotate import draw_objects
 from .base import ImageDetector, ImageFilter, as_bgr, as_gray
 from .binary_detector import BinaryDetector
-from .demo import DemoObject, DemoScene
+from .demo import DemoObject, DemoScene, DemoTarget
+from .feature_detector import FeatureDetector
+from .features import DetectionStatus, FeatureConfig, FeatureMatch, FeatureUnavailable, available_feature_types
 from .hsv_filter import HSVFilter
 from .messages import DetectedObject2D, DetectedObject2DArray, Point32, Polygon
 from .morphology_filter import MorphologyFilter
@@ -25,8 +27,14 @@ __all__ = [
     "DemoObject",
     "DemoScene",
     "DemoSource",
+    "DemoTarget",
     "DetectedObject2D",
     "DetectedObject2DArray",
+    "DetectionStatus",
+    "FeatureConfig",
+    "FeatureDetector",
+    "FeatureMatch",
+    "FeatureUnavailable",
     "FolderSource",
     "HSVFilter",
     "ImageDetector",
@@ -37,6 +45,7 @@ __all__ = [
     "Polygon",
     "as_bgr",
     "as_gray",
+    "available_feature_types",
     "draw_objects",
     "open_source",
     "read_image",

@@ -1,0 +1,372 @@
+"""FeatureDetector: find a selected, textured, flat object again by keypoints, descriptors and a homography.
+
+A user selects a rectangle around the object once; the detector keeps the image of the selection and its
+keypoints (the *target*). In each frame it computes keypoints and descriptors, matches them with the
+target's, fits a homography to the matches and reports the selection's outline as it appears in the frame,
+after checking that the outline is a plausible view of a flat object. When it reports nothing,
+``last_reason`` says why.
+"""
+
+from __future__ import annotations
+
+import logging
+import threading
+from collections.abc import Mapping
+from dataclasses import dataclass, replace
+from typing import Any
+
+import cv2
+import numpy as np
+
+from objrec_core import Bool, Choice, Float, Int, ParameterError, Rect, SelectionRefused
+
+from .base import ImageDetector, as_gray
+from .features.debug import keypoints_view, side_by_side
+from .features.geometry import (
+    HOMOGRAPHY_METHODS,
+    PolygonLimits,
+    check_quadrilateral,
+    estimate_homography,
+    homography_flag,
+    inlier_coverage,
+    project,
+)
+from .features.matching import MATCHERS, TrainedMatcher
+from .features.result import DetectionStatus, FeatureMatch
+from .features.target import (
+    Target,
+    TargetError,
+    compute_features,
+    target_from_selection,
+    target_from_state,
+    target_to_state,
+)
+from .features.types import (
+    FEATURE_PARAMETERS,
+    FEATURE_TYPES,
+    FeatureConfig,
+    FeatureUnavailable,
+    check_available,
+    create_feature2d,
+)
+from .messages import DetectedObject2D, Polygon
+
+log = logging.getLogger(__name__)
+
+DEBUG_VIEWS = ("side_by_side", "keypoints")
+
+
+@dataclass(frozen=True)
+class _Model:
+    """The target and a matcher trained on it, swapped together so a frame never sees one without the other."""
+
+    target: Target
+    matcher: TrainedMatcher | None  # None where the target has no keypoints with its configuration
+
+
+class FeatureDetector(ImageDetector):
+    """Finds the selected target by keypoint matching and a homography; see docs/feature-detection.md."""
+
+    # -- the feature configuration (changing any of these recomputes the target) -----------------------
+    feature_type = Choice(
+        "ORB", FEATURE_TYPES, "Keypoint detector and descriptor: ORB is fastest, SIFT most robust; SURF needs non-free"
+    )
+    max_features = Int(1000, "ORB, SIFT: the strongest keypoints kept per image", min=10, max=100000, step=10)
+    orb_scale_factor = Float(1.2, "ORB: scale step between pyramid levels", min=1.01, max=2.0, step=0.05)
+    orb_levels = Int(8, "ORB: pyramid levels (more levels find the target over a wider range of sizes)", min=1, max=16)
+    orb_fast_threshold = Int(20, "ORB: FAST corner threshold; lower finds more corners in flat images", min=1, max=100)
+    sift_contrast_threshold = Float(
+        0.04, "SIFT: minimum local contrast; lower finds more keypoints in low-contrast images",
+        min=0.001, max=0.5, step=0.005,
+    )
+    akaze_threshold = Float(0.001, "AKAZE: detector response threshold", min=0.00001, max=0.1, step=0.0005)
+    kaze_threshold = Float(0.001, "KAZE: detector response threshold", min=0.00001, max=0.1, step=0.0005)
+    brisk_threshold = Int(30, "BRISK: AGAST corner threshold", min=1, max=255)
+    surf_hessian_threshold = Float(400.0, "SURF: Hessian threshold", min=1.0, max=10000.0, step=50.0)
+    # -- matching --------------------------------------------------------------------------------------
+    matcher = Choice(
+        "brute_force", MATCHERS, "brute_force is exact; flann (LSH for binary, KD-trees for float) suits big targets"
+    )
+    ratio_test = Bool(True, "Drop ambiguous matches (Lowe's ratio test)")
+    ratio = Float(0.8, "Ratio test: best distance must be below this times the 2nd best", min=0.1, max=1.0, step=0.05)
+    cross_check = Bool(False, "Keep a match only if it is also the best the other way round")
+    min_matches = Int(10, "Fewest good matches worth fitting a homography to", min=4, max=10000)
+    # -- homography and sanity checks ------------------------------------------------------------------
+    homography_method = Choice(
+        "USAC_MAGSAC", HOMOGRAPHY_METHODS, "Robust estimator: USAC_MAGSAC is the most accurate, RHO the fastest"
+    )
+    reprojection_threshold = Float(
+        3.0, "Largest reprojection error of an inlier, in pixels (LMEDS ignores it)", min=0.1, max=50.0, step=0.5
+    )
+    min_inliers = Int(10, "Fewest homography inliers for a detection", min=4, max=10000)
+    min_inlier_coverage = Float(
+        0.1, "Share of the selection the inliers must span; bunched or collinear inliers extrapolate badly",
+        min=0.0, max=1.0, step=0.05,
+    )
+    min_area = Float(100.0, "Smallest plausible area of the found outline, in px²", min=0.0, max=1e7, step=10.0)
+    max_area_fraction = Float(
+        4.0, "Largest plausible area of the found outline, as a multiple of the frame's", min=0.01, max=100.0, step=0.5
+    )
+    min_corner_angle = Float(
+        15.0, "Smallest corner angle of the found outline in degrees; flatter means squashed", min=0.0, max=89.0
+    )
+    # -- display ---------------------------------------------------------------------------------------
+    debug_view = Choice(
+        "side_by_side", DEBUG_VIEWS, "Stage view: frame and target side by side with matches, or keypoints on the frame"
+    )
+
+    def __init__(self, id: str | None = None, *, object_name: str | None = None, **parameters: Any) -> None:
+        self._model: _Model | None = None
+        self._model_lock = threading.RLock()
+        self._failed: tuple[FeatureConfig, str] | None = None  # a recompute that failed, not retried per frame
+        self._extractor: tuple[FeatureConfig, Any] | None = None  # the frame thread's own cv2.Feature2D
+        self._last: tuple[FeatureMatch, Target | None] | None = None
+        super().__init__(id, object_name=object_name, **parameters)
+
+    # -- parameters ------------------------------------------------------------------------------------
+    def validate_parameters(self, values: Mapping[str, Any]) -> dict[str, Any]:
+        """Declared checks, plus: the feature type and homography method must exist in this OpenCV."""
+        clean = super().validate_parameters(values)
+        if "feature_type" in clean:
+            try:
+                check_available(clean["feature_type"])
+            except FeatureUnavailable as exc:
+                raise ParameterError(self.label, "feature_type", clean["feature_type"], str(exc)) from None
+        if "homography_method" in clean:
+            try:
+                homography_flag(clean["homography_method"])
+            except FeatureUnavailable as exc:
+                raise ParameterError(self.label, "homography_method", clean["homography_method"], str(exc)) from None
+        return clean
+
+    def parameters_changed(self, changed: set[str]) -> None:
+        """A new feature configuration recomputes the target from its stored image right away (not at
+        the next frame), so the GUI shows the new keypoints at once; too few of them is logged."""
+        if changed & FEATURE_PARAMETERS and self._model is not None:
+            p = self.params
+            model = self._model_for(FeatureConfig.from_parameters(p), p["matcher"])
+            needed = max(p["min_matches"], p["min_inliers"])
+            if isinstance(model, _Model) and len(model.target) < needed:
+                log.warning(
+                    "%s: with %s the target has %d keypoints, fewer than the %d needed; it cannot be found",
+                    self.label, model.target.config.describe(), len(model.target), needed,
+                )
+
+    # -- the target ------------------------------------------------------------------------------------
+    @property
+    def target(self) -> Target | None:
+        """The current target (image, selection, keypoints, descriptors, configuration), or None."""
+        model = self._model
+        return model.target if model is not None else None
+
+    def process_area_selection(self, rect: Rect, frame: np.ndarray) -> None:
+        """Make the selected area the target; refuse (SelectionRefused) one with too few keypoints."""
+        p = self.params
+        config = FeatureConfig.from_parameters(p)
+        try:
+            _check_image(frame)
+            target = target_from_selection(frame, rect, config)
+        except (TargetError, FeatureUnavailable) as exc:
+            raise SelectionRefused(str(exc)) from None
+        needed = max(p["min_matches"], p["min_inliers"])
+        if len(target) < needed:
+            what = "no" if len(target) == 0 else f"only {len(target)}"
+            plural = "" if len(target) == 1 else "s"
+            raise SelectionRefused(
+                f"the {target.rect.width}x{target.rect.height} px selection has {what} {config.type} keypoint{plural}, "
+                f"{needed} are needed (min_matches/min_inliers): the area is too plain; select a textured one"
+            )
+        self._install(_Model(target, TrainedMatcher(target.descriptors, target.norm, p["matcher"])))
+        log.info("%s: target %s with %d %s keypoints", self.label, target.rect, len(target), config.type)
+        self.notify()
+
+    def set_target(self, image: np.ndarray, rect: Rect | None = None) -> None:
+        """Use ``rect`` of ``image`` (the whole image by default) as the target, as a selection would."""
+        if rect is None:
+            rect = Rect(0, 0, image.shape[1], image.shape[0])
+        self.process_area_selection(rect, image)
+
+    def clear_target(self) -> None:
+        self._install(None)
+        self.notify()
+
+    def _install(self, model: _Model | None) -> None:
+        with self._model_lock:
+            self._model = model
+            self._failed = None
+
+    def _model_for(self, config: FeatureConfig, matcher_kind: str) -> _Model | str:
+        """The model for this configuration and matcher, recomputed from the stored image where they
+        changed; or why there is none. Never a target computed with another configuration."""
+        model = self._model
+        if (
+            model is not None
+            and model.target.config == config
+            and model.matcher is not None
+            and model.matcher.kind == matcher_kind
+        ):
+            return model
+        if model is None:
+            return "no target selected"
+        with self._model_lock:
+            model = self._model
+            if model is None:
+                return "no target selected"
+            target = model.target
+            if target.config != config:
+                if self._failed is not None and self._failed[0] == config:
+                    return self._failed[1]
+                try:
+                    target = target.with_config(config)
+                except (TargetError, FeatureUnavailable, cv2.error) as exc:
+                    reason = f"the target cannot be recomputed with {config.describe()}: {exc}"
+                    log.warning("%s: %s", self.label, reason)
+                    self._failed = (config, reason)
+                    return reason
+                log.info("%s: target recomputed with %s: %d keypoints", self.label, config.describe(), len(target))
+            matcher = model.matcher if target is model.target else None
+            if len(target) == 0:
+                matcher = None
+            elif matcher is None or matcher.kind != matcher_kind:
+                matcher = TrainedMatcher(target.descriptors, target.norm, matcher_kind)
+            model = _Model(target, matcher)
+            self._model = model
+            self._failed = None
+        return model
+
+    # -- detection -------------------------------------------------------------------------------------
+    def _frame_extractor(self, config: FeatureConfig) -> Any:
+        cached = self._extractor
+        if cached is None or cached[0] != config:
+            cached = (config, create_feature2d(config))
+            self._extractor = cached
+        return cached[1]
+
+    def detect(self, frame: np.ndarray) -> list[DetectedObject2D]:
+        _check_image(frame)
+        p = self.params
+        config = FeatureConfig.from_parameters(p)
+        model = self._model_for(config, p["matcher"])
+        if isinstance(model, str):
+            return self._finish(FeatureMatch(DetectionStatus.NO_TARGET, model, frame.shape), None)
+        target = model.target
+        if model.matcher is None:
+            reason = f"the target has no {config.type} keypoints with these settings"
+            return self._finish(FeatureMatch(DetectionStatus.NO_TARGET, reason, frame.shape), target)
+        keypoints, descriptors = compute_features(self._frame_extractor(config), as_gray(frame))
+        frame_points = cv2.KeyPoint_convert(keypoints).reshape(-1, 2) if keypoints else np.empty((0, 2), np.float32)
+        matches = model.matcher.match(descriptors, p["ratio"] if p["ratio_test"] else None, p["cross_check"])
+        found = FeatureMatch(DetectionStatus.TOO_FEW_MATCHES, None, frame.shape, frame_points, matches)
+        if len(matches) < p["min_matches"]:
+            reason = f"too few matches: {len(matches)} of {len(keypoints)} keypoints, min_matches is {p['min_matches']}"
+            return self._finish(_with(found, reason=reason), target)
+        homography, inliers = estimate_homography(
+            target.points[matches.target_idx],
+            frame_points[matches.frame_idx],
+            p["homography_method"],
+            p["reprojection_threshold"],
+        )
+        found = _with(found, inliers=inliers, homography=homography)
+        if homography is None:
+            reason = f"no homography fits the {len(matches)} matches"
+            return self._finish(_with(found, status=DetectionStatus.NO_HOMOGRAPHY, reason=reason), target)
+        if inliers.sum() < p["min_inliers"]:
+            count = int(inliers.sum())
+            reason = f"too few inliers: {count} of {len(matches)} matches, min_inliers is {p['min_inliers']}"
+            return self._finish(_with(found, status=DetectionStatus.TOO_FEW_INLIERS, reason=reason), target)
+        roi = target.roi
+        coverage = inlier_coverage(target.points[matches.target_idx[inliers]], roi.width * roi.height)
+        if coverage < p["min_inlier_coverage"]:
+            reason = (
+                f"inliers bunched: they span {coverage:.0%} of the target, "
+                f"min_inlier_coverage is {p['min_inlier_coverage']:.0%}"
+            )
+            return self._finish(_with(found, status=DetectionStatus.BUNCHED_INLIERS, reason=reason), target)
+        quadrilateral, w = project(homography, target.corners())
+        limits = PolygonLimits(p["min_area"], p["max_area_fraction"], p["min_corner_angle"])
+        problem = check_quadrilateral(quadrilateral, w, frame.shape, limits)
+        found = _with(found, quadrilateral=quadrilateral)
+        if problem is not None:
+            reason = f"degenerate polygon: {problem}"
+            return self._finish(_with(found, status=DetectionStatus.DEGENERATE_POLYGON, reason=reason), target)
+        self._finish(_with(found, status=DetectionStatus.FOUND), target)
+        return [DetectedObject2D(self.object_name, Polygon.from_xy(quadrilateral.tolist()))]
+
+    def _finish(self, result: FeatureMatch, target: Target | None) -> list[DetectedObject2D]:
+        previous = self._last
+        if previous is None or previous[0].status is not result.status:
+            log.debug("%s: %s", self.label, result.reason or "found")
+        self._last = (result, target)
+        return []
+
+    @property
+    def last_result(self) -> FeatureMatch | None:
+        """The last frame's attempt: status, reason, keypoints, matches, inliers, homography."""
+        last = self._last
+        return last[0] if last is not None else None
+
+    @property
+    def last_reason(self) -> str | None:
+        """Why the last frame reported no object (None when it reported one, or before any frame)."""
+        last = self._last
+        return last[0].reason if last is not None else None
+
+    @property
+    def last_status(self) -> DetectionStatus | None:
+        last = self._last
+        return last[0].status if last is not None else None
+
+    # -- views -----------------------------------------------------------------------------------------
+    def render_debug(self, frame: np.ndarray, objects: list[Any]) -> np.ndarray | None:
+        """The stage view: the side-by-side match view (default) or keypoints on the frame."""
+        last = self._last
+        result, target = last if last is not None else (None, self.target)
+        if result is not None and tuple(result.frame_shape[:2]) != tuple(frame.shape[:2]):
+            result = None  # a result from another frame would put points in the wrong places
+        if self.params["debug_view"] == "keypoints":
+            return keypoints_view(frame, result)
+        return side_by_side(frame, target, result)
+
+    # -- the parameter file ----------------------------------------------------------------------------
+    def get_state(self) -> dict[str, Any] | None:
+        """``{target: {features, rect, roi, keypoints, opencv, image_encoding, image}}``, or None without a
+        target. ``features`` is the configuration the current parameters select, which is the one the
+        keypoints are recomputed with on load."""
+        model = self._model
+        if model is None:
+            return None
+        config = FeatureConfig.from_parameters(self.params)
+        target = model.target
+        if target.config != config:
+            state = target_to_state(target)
+            state["features"] = config.to_dict()
+            return {"target": state}
+        return {"target": target_to_state(target)}
+
+    def prepare_state(self, state: Any, parameters: Mapping[str, Any]) -> _Model | None:
+        """Decode the saved target and recompute its keypoints with the configuration ``parameters``
+        select, which must be the saved one; nothing here changes the detector."""
+        check_available(parameters["feature_type"])
+        if state is None:
+            return None
+        if not isinstance(state, Mapping) or set(state) != {"target"}:
+            raise ValueError(f"expected a mapping with the single key 'target', found {state!r:.80}")
+        target = target_from_state(state["target"], FeatureConfig.from_parameters(parameters))
+        matcher = TrainedMatcher(target.descriptors, target.norm, parameters["matcher"]) if len(target) else None
+        return _Model(target, matcher)
+
+    def apply_state(self, prepared: _Model | None) -> None:
+        self._install(prepared)
+        self._last = None
+
+
+def _check_image(frame: Any) -> None:
+    """Keypoint detectors take 8-bit images only; say so here rather than in an OpenCV assertion."""
+    if not isinstance(frame, np.ndarray) or frame.dtype != np.uint8 or frame.ndim not in (2, 3) or frame.size == 0:
+        what = f"{frame.dtype} array of shape {frame.shape}" if isinstance(frame, np.ndarray) else type(frame).__name__
+        raise TargetError(f"FeatureDetector needs an 8-bit image (H x W or H x W x 3), got a {what}")
+
+
+def _with(result: FeatureMatch, **changes: Any) -> FeatureMatch:
+    """A copy of a frozen result with some fields replaced."""
+    return replace(result, **changes)

@@ -1,0 +1,42 @@
+"""The parts of the feature detector, one job each: feature types and their OpenCV 4/5 factories
+(``types``), matchers (``matching``), the homography and its sanity checks (``geometry``), the target
+(``target``), one frame's outcome (``result``) and the debug views (``debug``)."""
+
+from .debug import keypoints_view, side_by_side
+from .geometry import HOMOGRAPHY_METHODS, PolygonLimits, check_quadrilateral, corner_error, rect_corners
+from .matching import MATCHERS, Matches, TrainedMatcher
+from .result import DetectionStatus, FeatureMatch
+from .target import Target, TargetError, target_from_state, target_to_state
+from .types import (
+    FEATURE_TYPES,
+    FeatureConfig,
+    FeatureUnavailable,
+    available_feature_types,
+    create_feature2d,
+    unavailable_reason,
+)
+
+__all__ = [
+    "FEATURE_TYPES",
+    "HOMOGRAPHY_METHODS",
+    "MATCHERS",
+    "DetectionStatus",
+    "FeatureConfig",
+    "FeatureMatch",
+    "FeatureUnavailable",
+    "Matches",
+    "PolygonLimits",
+    "Target",
+    "TargetError",
+    "TrainedMatcher",
+    "available_feature_types",
+    "check_quadrilateral",
+    "corner_error",
+    "create_feature2d",
+    "keypoints_view",
+    "rect_corners",
+    "side_by_side",
+    "target_from_state",
+    "target_to_state",
+    "unavailable_reason",
+]

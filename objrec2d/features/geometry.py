@@ -1,0 +1,151 @@
+"""The homography from target to frame, and the checks a projected target must pass to count as found.
+
+A homography fitted to a handful of lucky matches can fold the target rectangle into a bow tie, squash it
+to a line or blow it up past the frame; find-object rejects such results before reporting anything, and so
+do we.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+
+from objrec_core import Rect
+
+from .types import FeatureUnavailable
+
+#: Homography estimators by the name used in parameter files (the cv2 constant of the same name).
+HOMOGRAPHY_METHODS: tuple[str, ...] = ("RANSAC", "USAC_MAGSAC", "LMEDS", "RHO")
+
+
+def homography_flag(method: str) -> int:
+    """The cv2 constant for a method name; USAC methods need OpenCV 4.5 or newer."""
+    if method not in HOMOGRAPHY_METHODS:
+        raise ValueError(f"unknown homography method {method!r} (known: {', '.join(HOMOGRAPHY_METHODS)})")
+    flag = getattr(cv2, method, None)
+    if flag is None:
+        raise FeatureUnavailable(f"homography method {method} is not in the installed OpenCV {cv2.__version__}")
+    return int(flag)
+
+
+def rect_corners(rect: Rect) -> np.ndarray:
+    """The rectangle's outline as 4 x 2 float32, clockwise on screen from the top-left.
+
+    OpenCV puts pixel centres on integer coordinates, so the outer edge of pixel column ``x`` is at
+    ``x - 0.5``: these are the corners of the pixels' outline, not the centres of the corner pixels, so
+    that a transformed rectangle outlines the object however it is scaled or turned.
+    """
+    x0, y0 = rect.x - 0.5, rect.y - 0.5
+    x1, y1 = x0 + rect.width, y0 + rect.height
+    return np.array([[x0, y0], [x1, y0], [x1, y1], [x0, y1]], dtype=np.float32)
+
+
+def estimate_homography(
+    target_points: np.ndarray,
+    frame_points: np.ndarray,
+    method: str,
+    threshold: float,
+    max_iterations: int = 2000,
+    confidence: float = 0.995,
+) -> tuple[np.ndarray | None, np.ndarray]:
+    """Fit target -> frame; returns the 3x3 matrix (None where none was found) and the inlier mask."""
+    count = len(target_points)
+    if count < 4:
+        return None, np.zeros(count, dtype=bool)
+    try:
+        matrix, mask = cv2.findHomography(
+            target_points.reshape(-1, 1, 2),
+            frame_points.reshape(-1, 1, 2),
+            homography_flag(method),
+            threshold,
+            maxIters=max_iterations,
+            confidence=confidence,
+        )
+    except cv2.error:  # e.g. all points on one line: no homography, which is a failure, not a crash
+        return None, np.zeros(count, dtype=bool)
+    if matrix is None or mask is None or not np.all(np.isfinite(matrix)):
+        return None, np.zeros(count, dtype=bool)
+    return matrix, mask.reshape(-1).astype(bool)
+
+
+@dataclass(frozen=True)
+class PolygonLimits:
+    """What a plausible projected target looks like."""
+
+    min_area: float = 100.0  # square pixels
+    max_area_fraction: float = 4.0  # of the frame's area
+    min_corner_angle: float = 15.0  # degrees; the largest angle may be at most 180 minus this
+
+
+def project(matrix: np.ndarray, corners: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Corners through the homography: the projected points and their homogeneous w (w <= 0: behind)."""
+    ones = np.ones((len(corners), 1), dtype=np.float64)
+    homogeneous = np.hstack([corners.astype(np.float64), ones]) @ matrix.T
+    w = homogeneous[:, 2]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        points = homogeneous[:, :2] / w[:, None]
+    return points, w
+
+
+def check_quadrilateral(
+    points: np.ndarray, w: np.ndarray, frame_shape: tuple[int, ...], limits: PolygonLimits
+) -> str | None:
+    """None where the projected rectangle is a plausible view of a flat object, else what is wrong.
+
+    Plain floats rather than numpy: for four points the arithmetic is cheaper than numpy's call overhead,
+    and this runs on every frame.
+    """
+    if min(w.tolist()) <= 1e-9 or not np.all(np.isfinite(points)):
+        return "a corner projects to infinity (the homography folds the target behind the camera)"
+    pts = [(float(x), float(y)) for x, y in points.tolist()]
+    count = len(pts)
+    edges = [(pts[(i + 1) % count][0] - pts[i][0], pts[(i + 1) % count][1] - pts[i][1]) for i in range(count)]
+    lengths = [math.hypot(ex, ey) for ex, ey in edges]
+    if min(lengths) < 1.0:
+        return f"a side is shorter than a pixel ({min(lengths):.2f} px)"
+    cross = [edges[i][0] * edges[(i + 1) % count][1] - edges[i][1] * edges[(i + 1) % count][0] for i in range(count)]
+    if all(c < 0 for c in cross):
+        return "mirrored: the homography flips the target over"
+    if not all(c > 0 for c in cross):
+        return "not convex (the outline crosses itself or bends inwards)"
+    area = 0.5 * abs(sum(x0 * y1 - x1 * y0 for (x0, y0), (x1, y1) in zip(pts, pts[1:] + pts[:1], strict=True)))
+    if area < limits.min_area:
+        return f"area {area:.0f} px² is below min_area {limits.min_area:.0f} px²"
+    frame_area = float(frame_shape[0] * frame_shape[1])
+    if area > limits.max_area_fraction * frame_area:
+        return f"area {area:.0f} px² is more than {limits.max_area_fraction:g} times the frame's"
+    # The interior angle at corner i+1 lies between the reversed edge i and edge i+1.
+    angles = []
+    for i in range(count):
+        (ax, ay), (bx, by) = edges[i], edges[(i + 1) % count]
+        cos = -(ax * bx + ay * by) / (lengths[i] * lengths[(i + 1) % count])
+        angles.append(math.degrees(math.acos(max(-1.0, min(1.0, cos)))))
+    if min(angles) < limits.min_corner_angle or max(angles) > 180.0 - limits.min_corner_angle:
+        return (
+            f"a corner angle of {min(angles):.0f}°..{max(angles):.0f}° lies outside "
+            f"{limits.min_corner_angle:g}°..{180 - limits.min_corner_angle:g}° (squashed)"
+        )
+    return None
+
+
+def inlier_coverage(target_points: np.ndarray, roi_area: float) -> float:
+    """The share of the selection covered by the convex hull of the inliers' target positions.
+
+    A homography fitted to points along one line (a bar, a row of text) or in one small patch fits
+    them well and still swings the far corners about: it is only trustworthy where the inliers span
+    a fair part of the target.
+    """
+    if len(target_points) < 3 or roi_area <= 0:
+        return 0.0
+    hull = cv2.convexHull(np.ascontiguousarray(target_points, dtype=np.float32))
+    return float(cv2.contourArea(hull)) / roi_area
+
+
+def corner_error(found: np.ndarray, truth: np.ndarray) -> float:
+    """The largest distance between corresponding corners, in pixels (for tests and benchmarks)."""
+    found = np.asarray(found, dtype=np.float64).reshape(-1, 2)
+    truth = np.asarray(truth, dtype=np.float64).reshape(-1, 2)
+    return float(max(math.hypot(*(f - t)) for f, t in zip(found, truth, strict=True)))

@@ -1,0 +1,119 @@
+"""Descriptor matching: a matcher trained on the target's descriptors, the ratio test and the cross check.
+
+The norm follows the descriptor: Hamming for binary descriptors, L2 for float ones. FLANN gets an LSH index
+for binary descriptors and KD-trees for float ones; KD-trees on binary descriptors crash or return
+nonsense, which is why the index is never chosen by hand.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import cv2
+import numpy as np
+
+from .types import is_binary_norm
+
+MATCHERS: tuple[str, ...] = ("brute_force", "flann")
+
+# FLANN index algorithms (flann::flann_algorithm_t); the Python bindings take them as plain numbers.
+_FLANN_KDTREE = 1
+_FLANN_LSH = 6
+
+
+@dataclass(frozen=True)
+class Matches:
+    """Matched pairs as parallel arrays: frame keypoint index, target keypoint index, descriptor distance."""
+
+    frame_idx: np.ndarray
+    target_idx: np.ndarray
+    distance: np.ndarray
+
+    def __len__(self) -> int:
+        return len(self.frame_idx)
+
+    @classmethod
+    def empty(cls) -> Matches:
+        none = np.empty(0, dtype=np.int32)
+        return cls(none, none, np.empty(0, dtype=np.float32))
+
+
+def _flann_matcher(binary: bool) -> Any:
+    if binary:
+        index = {"algorithm": _FLANN_LSH, "table_number": 6, "key_size": 12, "multi_probe_level": 1}
+    else:
+        index = {"algorithm": _FLANN_KDTREE, "trees": 4}
+    return cv2.FlannBasedMatcher(index, {"checks": 50})
+
+
+def _check_descriptors(descriptors: np.ndarray, binary: bool, what: str) -> np.ndarray:
+    expected = np.uint8 if binary else np.float32
+    if descriptors.dtype != expected:
+        kind = "binary (uint8)" if binary else "float (float32)"
+        raise ValueError(
+            f"{what} descriptors are {descriptors.dtype}, but the matcher was trained on {kind} ones: "
+            "they come from different feature types and cannot be compared"
+        )
+    return descriptors
+
+
+class TrainedMatcher:
+    """A brute-force or FLANN matcher trained once on the target's descriptors, then queried per frame."""
+
+    def __init__(self, target_descriptors: np.ndarray, norm: int, kind: str = "brute_force") -> None:
+        if kind not in MATCHERS:
+            raise ValueError(f"unknown matcher {kind!r} (known: {', '.join(MATCHERS)})")
+        self.kind = kind
+        self.norm = norm
+        self.binary = is_binary_norm(norm)
+        self.target_descriptors = _check_descriptors(target_descriptors, self.binary, "target")
+        self._matcher = cv2.BFMatcher(norm) if kind == "brute_force" else _flann_matcher(self.binary)
+        self._matcher.add([self.target_descriptors])
+        self._matcher.train()
+
+    def match(self, frame_descriptors: np.ndarray, ratio: float | None, cross_check: bool) -> Matches:
+        """Match every frame descriptor against the target.
+
+        ``ratio``: keep a match only when its distance is below ``ratio`` times the second-nearest one
+        (Lowe's test; None switches it off). ``cross_check``: keep it only when the frame keypoint is also
+        the target keypoint's nearest neighbour in the frame. Always one-to-one: where several frame
+        keypoints take the same target keypoint, the closest wins, so no target point is counted twice
+        as an inlier.
+        """
+        if frame_descriptors is None or len(frame_descriptors) == 0 or len(self.target_descriptors) == 0:
+            return Matches.empty()
+        frame_descriptors = _check_descriptors(frame_descriptors, self.binary, "frame")
+        if ratio is not None:
+            knn = self._matcher.knnMatch(frame_descriptors, k=2)
+            kept = [
+                pair[0] for pair in knn if len(pair) == 2 and pair[0].distance < ratio * pair[1].distance
+            ]
+        else:
+            kept = [pair[0] for pair in self._matcher.knnMatch(frame_descriptors, k=1) if pair]
+        if not kept:
+            return Matches.empty()
+        table = np.array([(m.queryIdx, m.trainIdx, m.distance) for m in kept], dtype=np.float64)
+        frame_idx, target_idx = table[:, 0].astype(np.int32), table[:, 1].astype(np.int32)
+        distance = table[:, 2].astype(np.float32)
+        # One frame keypoint per target keypoint: sort by target then distance, keep each target's first.
+        order = np.lexsort((distance, target_idx))
+        first = np.ones(len(order), dtype=bool)
+        first[1:] = target_idx[order][1:] != target_idx[order][:-1]
+        keep = order[first]
+        frame_idx, target_idx, distance = frame_idx[keep], target_idx[keep], distance[keep]
+        if cross_check:
+            mutual = self._reverse_best(frame_descriptors)[target_idx] == frame_idx
+            frame_idx, target_idx, distance = frame_idx[mutual], target_idx[mutual], distance[mutual]
+        return Matches(frame_idx, target_idx, distance)
+
+    def _reverse_best(self, frame_descriptors: np.ndarray) -> np.ndarray:
+        """For each target descriptor, the index of its nearest frame descriptor (-1 where none)."""
+        if self.kind == "brute_force":
+            reverse = cv2.BFMatcher(self.norm).match(self.target_descriptors, frame_descriptors)
+        else:
+            reverse = _flann_matcher(self.binary).match(self.target_descriptors, frame_descriptors)
+        best = np.full(len(self.target_descriptors), -1, dtype=np.int32)
+        for m in reverse:
+            best[m.queryIdx] = m.trainIdx
+        return best

@@ -1,0 +1,466 @@
+"""RANSAC fits of planes, spheres and cylinders to points with normals, in NumPy.
+
+Hypotheses are made in vectorised batches and scored with matrix products against a fixed random
+subsample of the points (no N x H x 3 temporaries), so a whole cylinder search costs a few milliseconds.
+
+Scoring follows PCL's SACMODEL_*_WITH_NORMALS: a point's cost is
+``w * angle + (1 - w) * |distance to the surface|``, where ``angle`` is the angle between the point's
+normal and the model's outward surface normal there, and a point is an inlier when that cost is below the
+threshold. Normals face the sensor, and the visible surface of a convex object faces it too, so the angle
+is signed: the inside of a mug seen through its opening (normals toward the axis) is not the mug's wall.
+Hypotheses are ranked by the truncated (MSAC) cost, which separates good from merely large models.
+
+The best hypothesis is refined without trusting an unconstrained least-squares step: proposals (the axis
+from the normals, the centre from the normal lines, then a geometric fit started there) are accepted only
+if their radius stays within the limits and near the hypothesis, and their RANSAC cost is lower.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+from .vec import dot3, pair_dots
+
+log = logging.getLogger(__name__)
+
+_BATCH = 256
+_SUBSAMPLE = 1024
+_MIN_PAIR_ANGLE = math.radians(8.0)  # two normals closer than this give no usable cylinder axis
+
+
+@dataclass
+class ShapeSettings:
+    """What a shape search looks for; see ShapeDetector's parameters for each one's meaning."""
+
+    shape: str = "cylinder"
+    min_radius: float = 0.0
+    max_radius: float = 0.1
+    threshold: float = 0.01
+    normal_weight: float = 0.1
+    max_iterations: int = 1000
+    probability: float = 0.99
+
+
+@dataclass
+class ShapeFit:
+    """A fitted sphere or cylinder.
+
+    ``center``: the sphere's centre, or a point on the cylinder's axis; ``axis``: the cylinder's unit axis
+    (None for a sphere); ``inliers``: indices into the points that were searched.
+    """
+
+    shape: str
+    center: np.ndarray
+    axis: np.ndarray | None
+    radius: float
+    inliers: np.ndarray
+    cost: float
+    iterations: int = 0
+
+
+@dataclass
+class PlaneFit:
+    """A plane ``normal . p + offset = 0`` (unit normal facing the sensor) and its inlier mask."""
+
+    normal: np.ndarray
+    offset: float
+    inliers: np.ndarray  # boolean mask over the points searched
+
+
+def required_iterations(inlier_ratio: float, sample_size: int, probability: float) -> float:
+    """RANSAC's adaptive stopping: draws needed to see one all-inlier sample with ``probability``."""
+    good = inlier_ratio**sample_size
+    if good <= 0.0:
+        return math.inf
+    if good >= 1.0:
+        return 1.0
+    return math.log(1.0 - probability) / math.log(1.0 - good)
+
+
+# -- planes -----------------------------------------------------------------------------------------------
+def fit_plane(
+    points: np.ndarray,
+    threshold: float,
+    *,
+    max_iterations: int = 200,
+    probability: float = 0.99,
+    rng: np.random.Generator | None = None,
+    origin: np.ndarray | None = None,
+) -> PlaneFit | None:
+    """The dominant plane of ``points`` (N x 3, finite) by RANSAC, refined by PCA of its inliers."""
+    rng = rng if rng is not None else np.random.default_rng(0)
+    n = points.shape[0]
+    if n < 3:
+        return None
+    shift = points[:: max(1, n // 1000)].mean(axis=0, dtype=np.float64)
+    local = points.astype(np.float32) - shift.astype(np.float32)
+    sample = local[rng.choice(n, size=_SUBSAMPLE, replace=False)] if n > _SUBSAMPLE else local
+    best_count, best = -1, None
+    done, needed = 0, float(max_iterations)
+    while done < min(needed, max_iterations):
+        batch = min(_BATCH, max_iterations - done)
+        idx = rng.integers(0, sample.shape[0], size=(batch, 3))
+        a, b, c = sample[idx[:, 0]], sample[idx[:, 1]], sample[idx[:, 2]]
+        normals = np.cross(b - a, c - a)
+        length = np.linalg.norm(normals, axis=1)
+        ok = length > 1e-9
+        done += batch
+        if not ok.any():
+            continue
+        normals = normals[ok] / length[ok, None]
+        offsets = -np.einsum("ij,ij->i", normals, a[ok])
+        counts = (np.abs(pair_dots(normals, sample) + offsets[:, None]) < threshold).sum(axis=1)
+        k = int(np.argmax(counts))
+        if counts[k] > best_count:
+            best_count, best = int(counts[k]), (normals[k].astype(np.float64), float(offsets[k]))
+            needed = required_iterations(best_count / sample.shape[0], 3, probability)
+    if best is None:
+        return None
+    normal, offset = best
+    # Refine by PCA of the inliers among (at most) 20,000 random points, twice.
+    refine = local[rng.choice(n, size=20_000, replace=False)] if n > 20_000 else local
+    refine = refine.astype(np.float64)
+    for _ in range(2):
+        chosen = refine[np.abs(dot3(refine, normal) + offset) < threshold]
+        if chosen.shape[0] < 3:
+            break
+        centroid = chosen.mean(axis=0)
+        centred = chosen - centroid
+        _, vectors = np.linalg.eigh(np.einsum("ni,nj->ij", centred, centred))
+        normal = vectors[:, 0]
+        offset = -float(normal @ centroid)
+    distance = dot3(local, normal)
+    distance += np.float32(offset)
+    mask = np.abs(distance) < threshold
+    offset -= float(normal @ shift)
+    sensor = np.zeros(3) if origin is None else np.asarray(origin, dtype=np.float64)
+    if normal @ sensor + offset < 0:  # face the sensor
+        normal, offset = -normal, -offset
+    return PlaneFit(normal, offset, mask)
+
+
+# -- spheres and cylinders -------------------------------------------------------------------------------
+def _costs(
+    shape: str, centers: np.ndarray, axes: np.ndarray | None, radii: np.ndarray, pts: np.ndarray, nrm: np.ndarray,
+    pts_sq: np.ndarray, nrm_dot_pts: np.ndarray, weight: float,
+) -> np.ndarray:
+    """Per-point cost for H models x M points (H x M), with matrix products only."""
+    cp = pair_dots(centers, pts)  # H x M
+    v2 = pts_sq[None, :] - 2.0 * cp + (centers * centers).sum(axis=1)[:, None]
+    nv = nrm_dot_pts[None, :] - pair_dots(centers, nrm)  # n . (p - c)
+    if shape == "sphere":
+        dist2 = v2
+        nr = nv
+    else:
+        along = pair_dots(axes, pts) - (centers * axes).sum(axis=1)[:, None]
+        dist2 = v2 - along * along
+        nr = nv - along * pair_dots(axes, nrm)  # n . radial vector
+    np.maximum(dist2, 1e-12, out=dist2)
+    dist = np.sqrt(dist2)
+    cos = nr / dist
+    np.clip(cos, -1.0, 1.0, out=cos)
+    angle = np.arccos(cos)
+    return weight * angle + (1.0 - weight) * np.abs(dist - radii[:, None])
+
+
+Hypotheses = tuple[np.ndarray, np.ndarray | None, np.ndarray]  # centres, axes (None: spheres), radii
+
+
+def _cylinder_hypotheses(p1: np.ndarray, n1: np.ndarray, p2: np.ndarray, n2: np.ndarray,
+                         settings: ShapeSettings) -> Hypotheses:
+    raw = np.cross(n1, n2)
+    sin2 = (raw * raw).sum(axis=1)
+    ok = sin2 > math.sin(_MIN_PAIR_ANGLE) ** 2
+    d = p2 - p1
+    with np.errstate(invalid="ignore", divide="ignore"):
+        s = np.einsum("ij,ij->i", np.cross(d, n2), raw) / sin2  # p1 + s n1 reaches the axis
+        t = np.einsum("ij,ij->i", np.cross(d, n1), raw) / sin2  # p2 + t n2 reaches the axis
+    # Outward normals: the axis lies behind both points (s, t < 0); both must see the same radius.
+    r1, r2 = -s, -t
+    radius = 0.5 * (r1 + r2)
+    with np.errstate(invalid="ignore"):
+        ok &= (r1 > 0) & (r2 > 0) & (np.abs(r1 - r2) < max(settings.threshold, 0.15 * settings.max_radius))
+        ok &= (radius >= settings.min_radius) & (radius <= settings.max_radius)
+    axes = raw[ok] / np.sqrt(sin2[ok])[:, None]
+    centers = p1[ok] + s[ok, None] * n1[ok]
+    return centers, axes, radius[ok]
+
+
+def _sphere_hypotheses(p1: np.ndarray, n1: np.ndarray, p2: np.ndarray, n2: np.ndarray,
+                       settings: ShapeSettings) -> Hypotheses:
+    d = p2 - p1
+    dd = (d * d).sum(axis=1)
+    with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
+        r1 = -dd / (2.0 * np.einsum("ij,ij->i", d, n1))  # |p2 - (p1 - r n1)| = r
+        r2 = -dd / (-2.0 * np.einsum("ij,ij->i", d, n2))  # |p1 - (p2 - r n2)| = r
+        radius = 0.5 * (r1 + r2)
+        ok = (r1 > 0) & (r2 > 0) & (np.abs(r1 - r2) < max(settings.threshold, 0.15 * settings.max_radius))
+    ok &= (radius >= settings.min_radius) & (radius <= settings.max_radius) & (dd > 1e-10)
+    p1, n1, p2, n2, radius = p1[ok], n1[ok], p2[ok], n2[ok], radius[ok]
+    centers = 0.5 * ((p1 - radius[:, None] * n1) + (p2 - radius[:, None] * n2))
+    return centers, None, radius
+
+
+def _pair_sampler(points: np.ndarray, cell: float, rng: np.random.Generator
+                  ) -> Callable[[int], tuple[np.ndarray, np.ndarray]]:
+    """Draw point pairs that lie in one grid cell of size ``cell``: both points of a good sample must be on
+    one object, so drawing the second point near the first raises the share of good samples many-fold."""
+    keys = np.floor(points / cell).astype(np.int64)
+    keys -= keys.min(axis=0)
+    span = keys.max(axis=0) + 1
+    flat = (keys[:, 0] * span[1] + keys[:, 1]) * span[2] + keys[:, 2]
+    order = np.argsort(flat, kind="stable")
+    _, starts, counts = np.unique(flat[order], return_index=True, return_counts=True)
+    group = np.empty(points.shape[0], dtype=np.int64)
+    group[order] = np.repeat(np.arange(starts.size), counts)
+
+    def draw(size: int) -> tuple[np.ndarray, np.ndarray]:
+        first = rng.integers(0, points.shape[0], size=size)
+        g = group[first]
+        second = order[starts[g] + (rng.random(size) * counts[g]).astype(np.int64)]
+        return first, second
+
+    return draw
+
+
+def ransac_shape(
+    points: np.ndarray, normals: np.ndarray, settings: ShapeSettings, rng: np.random.Generator
+) -> ShapeFit | None:
+    """The best sphere or cylinder of ``settings`` among ``points`` (N x 3) with unit ``normals``, or None."""
+    n = points.shape[0]
+    if n < 2:
+        return None
+    shift = points.mean(axis=0)
+    local = (points - shift).astype(np.float32)
+    nrm = normals.astype(np.float32)
+    m = min(n, _SUBSAMPLE)
+    pick = rng.choice(n, size=m, replace=False) if n > m else np.arange(n)
+    sp, sn = local[pick], nrm[pick]
+    sp_sq, sn_dot = (sp * sp).sum(axis=1), (sn * sp).sum(axis=1)
+    make = _sphere_hypotheses if settings.shape == "sphere" else _cylinder_hypotheses
+    draw = _pair_sampler(local, 2.0 * max(settings.max_radius, settings.threshold), rng)
+    t = settings.threshold
+    best_cost, best = math.inf, None
+    done, needed = 0, math.inf
+    while done < min(needed, settings.max_iterations):
+        batch = min(_BATCH, settings.max_iterations - done)
+        i, j = draw(batch)
+        done += batch
+        ok = i != j
+        centers, axes, radii = make(local[i[ok]], nrm[i[ok]], local[j[ok]], nrm[j[ok]], settings)
+        if radii.size == 0:
+            continue
+        cost = _costs(settings.shape, centers, axes, radii, sp, sn, sp_sq, sn_dot, settings.normal_weight)
+        inlier = cost < t
+        msac = np.where(inlier, cost, t).sum(axis=1)
+        k = int(np.argmin(msac))
+        if msac[k] < best_cost:
+            best_cost = float(msac[k])
+            best = (centers[k].astype(np.float64), None if axes is None else axes[k].astype(np.float64),
+                    float(radii[k]))
+            needed = required_iterations(int(inlier[k].sum()) / m, 2, settings.probability)
+    if best is None:
+        return None
+    center, axis, radius = best
+    fit = _refine(settings, local.astype(np.float64), nrm.astype(np.float64), center, axis, radius)
+    if fit is None:
+        return None
+    fit.center = fit.center + shift
+    fit.iterations = done
+    return fit
+
+
+def full_costs(settings: ShapeSettings, points: np.ndarray, normals: np.ndarray, center: np.ndarray,
+               axis: np.ndarray | None, radius: float) -> np.ndarray:
+    """Each point's cost under one model (N)."""
+    return _costs(settings.shape, center[None, :], None if axis is None else axis[None, :], np.array([radius]),
+                  points, normals, (points * points).sum(axis=1), (normals * points).sum(axis=1),
+                  settings.normal_weight)[0]
+
+
+def _msac(costs: np.ndarray, t: float) -> float:
+    return float(np.minimum(costs, t).sum())
+
+
+_SUPPORT_COS = math.cos(math.radians(45.0))
+_REFINE_POINTS = 1500
+
+
+def _residuals(pts: np.ndarray, nrm: np.ndarray, center: np.ndarray, axis: np.ndarray | None,
+               radius: float) -> tuple[np.ndarray, np.ndarray]:
+    """Each point's distance to the surface and the cosine between its normal and the outward surface normal."""
+    rel = pts - center
+    if axis is not None:
+        rel = rel - dot3(rel, axis)[:, None] * axis
+    dist = np.maximum(np.linalg.norm(rel, axis=1), 1e-12)
+    return np.abs(dist - radius), np.einsum("ij,ij->i", nrm, rel) / dist
+
+
+def _refine(settings: ShapeSettings, pts: np.ndarray, nrm: np.ndarray, center: np.ndarray,
+            axis: np.ndarray | None, radius: float, rounds: int = 5) -> ShapeFit | None:
+    """Improve a hypothesis on its support: the points within the distance threshold whose normals agree
+    within 45 degrees (a wider arc than the strict inliers, so the radius is well conditioned). Each round
+    proposes models and keeps the one with the smallest truncated combined cost (the RANSAC objective, so
+    a least-squares fit that merely chases noise in the distances loses to one the normals agree with), only
+    if it is within the radius limits, near the hypothesis and better than the current model."""
+    t = settings.threshold
+
+    def cost(c: np.ndarray, a: np.ndarray | None, r: float) -> tuple[float, np.ndarray]:
+        dist, cos = _residuals(pts, nrm, c, a, r)
+        eligible = cos > _SUPPORT_COS
+        combined = settings.normal_weight * np.arccos(np.clip(cos, -1.0, 1.0)) + (1 - settings.normal_weight) * dist
+        return float(np.minimum(combined, t).sum()), eligible & (dist < t)
+
+    score, support = cost(center, axis, radius)
+    for _ in range(rounds):
+        if support.sum() < 5:
+            break
+        chosen = np.flatnonzero(support)
+        chosen = chosen[:: max(1, chosen.size // _REFINE_POINTS)]  # evenly thinned: fits need no more
+        proposals = (_sphere_proposals(pts[chosen], nrm[chosen], center, radius) if axis is None
+                     else _cylinder_proposals(pts[chosen], nrm[chosen], center, axis, radius))
+        best = None
+        for c2, a2, r2 in proposals:
+            if not (settings.min_radius <= r2 <= settings.max_radius) or abs(r2 - radius) > 0.5 * radius + t:
+                continue  # a refinement may not wander off: that is how least squares inflates radii
+            score2, support2 = cost(c2, a2, r2)
+            if best is None or score2 < best[0]:
+                best = (score2, c2, a2, r2, support2)
+        if best is None or best[0] >= score:
+            break
+        improved = score - best[0] > 1e-4 * max(score, 1e-9)
+        score, center, axis, radius, support = best
+        if not improved:
+            break
+    costs = full_costs(settings, pts, nrm, center, axis, radius)
+    return ShapeFit(settings.shape, center, axis, float(radius), np.flatnonzero(costs < t), _msac(costs, t))
+
+
+Model = tuple[np.ndarray, np.ndarray | None, float]  # centre, axis (None: sphere), radius
+
+
+def _cylinder_proposals(pts: np.ndarray, nrm: np.ndarray, center: np.ndarray, axis: np.ndarray,
+                        radius: float) -> list[Model]:
+    """Refined cylinders from the support: the axis from the normals (the direction all of them are
+    perpendicular to), the axis position from the normal lines (each passes through the axis) and the median
+    radius; then a geometric fit of all five parameters started there."""
+    _, vectors = np.linalg.eigh(np.einsum("ni,nj->ij", nrm, nrm))
+    a = vectors[:, 0]
+    if a @ axis < 0:
+        a = -a
+    if a @ axis < math.cos(math.radians(15.0)):
+        a = axis
+    u = np.cross(a, [1.0, 0.0, 0.0] if abs(a[0]) < 0.9 else [0.0, 1.0, 0.0])
+    u /= np.linalg.norm(u)
+    v = np.cross(a, u)
+    rel = pts - center
+    xy = np.stack([dot3(rel, u), dot3(rel, v)], axis=1)
+    c2 = _normal_lines_center(xy, np.stack([dot3(nrm, u), dot3(nrm, v)], axis=1))
+    proposals = []
+    if c2 is not None:
+        r2 = float(np.median(np.linalg.norm(xy - c2, axis=1)))
+        proposals.append((center + c2[0] * u + c2[1] * v, a, r2))
+    joint = _cylinder_geometric_fit(pts, *(proposals[0] if proposals else (center, a, radius)))
+    if joint is not None:
+        proposals.append(joint)
+    return proposals
+
+
+def _cylinder_geometric_fit(pts: np.ndarray, center: np.ndarray, axis: np.ndarray, radius: float,
+                            iterations: int = 4) -> Model | None:
+    """Gauss-Newton on all five cylinder parameters (axis tilt 2, axis position 2, radius) minimising the
+    points' distances to the surface; numerical Jacobian. The caller's guards decide whether to use it."""
+    u = np.cross(axis, [1.0, 0.0, 0.0] if abs(axis[0]) < 0.9 else [0.0, 1.0, 0.0])
+    u /= np.linalg.norm(u)
+    v = np.cross(axis, u)
+    rel0 = pts - center
+
+    def residual(x: np.ndarray) -> np.ndarray:
+        a = axis + x[0] * u + x[1] * v
+        a = a / np.linalg.norm(a)
+        rel = rel0 - (x[2] * u + x[3] * v)
+        radial = rel - dot3(rel, a)[:, None] * a
+        return np.linalg.norm(radial, axis=1) - x[4]
+
+    x = np.array([0.0, 0.0, 0.0, 0.0, radius])
+    steps = np.array([1e-4, 1e-4, 1e-5, 1e-5, 1e-5])
+    for _ in range(iterations):
+        f0 = residual(x)
+        jac = np.empty((pts.shape[0], 5))
+        for k in range(5):
+            dx = np.zeros(5)
+            dx[k] = steps[k]
+            jac[:, k] = (residual(x + dx) - f0) / steps[k]
+        try:
+            delta, *_ = np.linalg.lstsq(jac, -f0, rcond=None)
+        except np.linalg.LinAlgError:
+            return None
+        x += delta
+        if not np.isfinite(x).all() or x[4] <= 0:
+            return None
+        if np.abs(delta).max() < 1e-6:
+            break
+    a = axis + x[0] * u + x[1] * v
+    return center + x[2] * u + x[3] * v, a / np.linalg.norm(a), float(x[4])
+
+
+def _sphere_proposals(pts: np.ndarray, nrm: np.ndarray, center: np.ndarray, radius: float) -> list[Model]:
+    proposals = []
+    c2 = _normal_lines_center(pts - center, nrm)
+    start = (center, radius)
+    if c2 is not None:
+        c2 = c2 + center
+        r2 = float(np.median(np.linalg.norm(pts - c2, axis=1)))
+        proposals.append((c2, None, r2))
+        start = (c2, r2)
+    result = _geometric_fit(pts, *start)
+    if result is not None:
+        proposals.append((result[0], None, result[1]))
+    return proposals
+
+
+def _normal_lines_center(pts: np.ndarray, nrm: np.ndarray) -> np.ndarray | None:
+    """The point nearest (least squares) to all lines ``p + s n``: a sphere's centre, or a cylinder's axis in
+    the plane perpendicular to it. Linear, and well conditioned even on a short arc."""
+    lengths = np.linalg.norm(nrm, axis=1)
+    ok = lengths > 0.3
+    if ok.sum() < 3:
+        return None
+    n = nrm[ok] / lengths[ok, None]
+    dim = pts.shape[1]
+    projector = np.eye(dim)[None] - n[:, :, None] * n[:, None, :]  # K x d x d
+    lhs = projector.sum(axis=0)
+    rhs = np.einsum("kij,kj->i", projector, pts[ok])
+    if np.linalg.cond(lhs) > 1e8:
+        return None
+    return np.linalg.solve(lhs, rhs)
+
+
+def _geometric_fit(pts: np.ndarray, center: np.ndarray, radius: float, iterations: int = 10
+                   ) -> tuple[np.ndarray, float] | None:
+    """Minimise sum (|p - c| - r)^2 over c and r by Gauss-Newton, for circles (2D) and spheres (3D)."""
+    c = np.asarray(center, dtype=np.float64).copy()
+    r = float(radius)
+    for _ in range(iterations):
+        diff = pts - c
+        dist = np.linalg.norm(diff, axis=1)
+        if np.any(dist < 1e-12):
+            return None
+        residual = dist - r
+        jac = np.hstack([-diff / dist[:, None], -np.ones((pts.shape[0], 1))])
+        try:
+            step, *_ = np.linalg.lstsq(jac, -residual, rcond=None)
+        except np.linalg.LinAlgError:
+            return None
+        c += step[:-1]
+        r += step[-1]
+        if not np.isfinite(r) or r <= 0:
+            return None
+        if np.abs(step).max() < 1e-7:
+            break
+    return c, r

@@ -1,0 +1,109 @@
+"""Surface normals, as fast as the input allows.
+
+An organized cloud gets its normals from the image grid: points are box-averaged with integral images
+(PCL's AVERAGE_3D_GRADIENT idea) and the normal is the cross product of the horizontal and vertical
+gradients of those means, a few additions per point. An unorganized cloud needs a neighbour search: k
+nearest neighbours (SciPy's k-d tree) and the smallest eigenvector of their covariance.
+
+Normals are unit float32 vectors oriented toward the sensor (``n . (origin - p) >= 0``); a point whose
+normal cannot be estimated (too few neighbours, a depth jump) gets NaN.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .cloud import PointCloud
+
+
+def estimate_normals(cloud: PointCloud, indices: np.ndarray, *, window: int = 3, knn: int = 30) -> np.ndarray:
+    """Normals at ``cloud.points[indices]`` (valid points only): the image grid when the cloud is organized,
+    k nearest neighbours among the given points otherwise."""
+    if cloud.is_organized:
+        return grid_normals(cloud, indices, window=window)
+    return knn_normals(cloud.points[indices], knn, cloud.sensor_origin)
+
+
+def grid_normals(cloud: PointCloud, indices: np.ndarray, *, window: int = 3, max_slant: float = 0.12) -> np.ndarray:
+    """Normals of an organized cloud at the flat ``indices`` from its grid.
+
+    ``window`` is the half-size in pixels of the averaging box and the gradient step. A gradient longer
+    than ``max_slant`` x depth marks a depth discontinuity (or a surface seen nearly edge-on): NaN.
+    """
+    indices = np.asarray(indices, dtype=np.int64)
+    out = np.full((indices.size, 3), np.nan, dtype=np.float32)
+    if indices.size == 0:
+        return out
+    h, w = cloud.height, cloud.width
+    r = int(window)
+    rows, cols = np.divmod(indices, w)
+    # Integral image over the bounding box that matters only (a detector's input is often a small part of the
+    # frame), in float64: cumulative sums of metres over a whole image lose millimetres in float32.
+    top, bottom = max(int(rows.min()) - 2 * r - 1, 0), min(int(rows.max()) + 2 * r + 2, h)
+    left, right = max(int(cols.min()) - 2 * r - 1, 0), min(int(cols.max()) + 2 * r + 2, w)
+    grid = cloud.points.reshape(h, w, 3)[top:bottom, left:right]
+    hh, ww = bottom - top, right - left
+    values = np.zeros((hh + 1, ww + 1, 4), dtype=np.float64)
+    inner = values[1:, 1:]
+    inner[..., :3] = grid
+    valid = np.isfinite(grid[..., 0] + grid[..., 1] + grid[..., 2])
+    inner[~valid] = 0.0
+    inner[..., 3] = valid
+    np.cumsum(values, axis=0, out=values)
+    np.cumsum(values, axis=1, out=values)
+    rows = rows - top
+    cols = cols - left
+    # Box sums of every pixel of the bounding box at once (slices of the integral image), then the box means.
+    # Edge padding of the integral image is the clamping of the box at the border; then each box sum is
+    # four slices, no gathers.
+    pad = np.pad(values, ((r, r), (r, r), (0, 0)), mode="edge")
+    k = 2 * r + 1
+    box = pad[k : k + hh, k : k + ww] - pad[:hh, k : k + ww] - pad[k : k + hh, :ww] + pad[:hh, :ww]
+    count = box[..., 3]
+    with np.errstate(invalid="ignore", divide="ignore"):
+        mean = (box[..., :3] / count[..., None]).astype(np.float32)
+    need = (r + 1) ** 2  # at least a quarter of a box must be valid
+    mean[count < need] = np.nan
+    # Neighbours outside the box read as missing (NaN), which invalidates the normal below.
+    padded = np.full((hh + 2 * r, ww + 2 * r, 3), np.nan, dtype=np.float32)
+    padded[r : r + hh, r : r + ww] = mean
+    pr, pc = rows + r, cols + r
+    du = (padded[pr, pc + r] - padded[pr, pc - r]).astype(np.float64)
+    dv = (padded[pr + r, pc] - padded[pr - r, pc]).astype(np.float64)
+    normals = np.cross(du, dv)
+    length = np.linalg.norm(normals, axis=1)
+    depth = cloud.points[indices, 2].astype(np.float64)
+    limit = max_slant * np.abs(depth)
+    with np.errstate(invalid="ignore"):
+        ok = (length > 0) & (np.linalg.norm(du, axis=1) < limit) & (np.linalg.norm(dv, axis=1) < limit)
+    normals = normals[ok] / length[ok, None]
+    _orient(normals, cloud.points[indices[ok]], cloud.sensor_origin)
+    out[ok] = normals
+    return out
+
+
+def knn_normals(points: np.ndarray, k: int = 30, origin: np.ndarray | None = None) -> np.ndarray:
+    """Normals of unorganized points from their ``k`` nearest neighbours (PCA), oriented to ``origin``."""
+    from scipy.spatial import cKDTree
+
+    points = np.asarray(points, dtype=np.float64)
+    n = points.shape[0]
+    out = np.full((n, 3), np.nan, dtype=np.float32)
+    k = min(int(k), n)
+    if n < 3 or k < 3:
+        return out
+    _, neighbours = cKDTree(points).query(points, k=k, workers=-1)
+    local = points[neighbours]  # n x k x 3
+    local -= local.mean(axis=1, keepdims=True)
+    covariance = np.einsum("nki,nkj->nij", local, local)
+    _, vectors = np.linalg.eigh(covariance)
+    normals = vectors[:, :, 0]
+    _orient(normals, points, np.zeros(3) if origin is None else origin)
+    out[:] = normals
+    return out
+
+
+def _orient(normals: np.ndarray, points: np.ndarray, origin: np.ndarray) -> None:
+    """Flip normals in place to face the sensor."""
+    flip = np.einsum("ij,ij->i", normals, np.asarray(origin) - points) < 0
+    normals[flip] *= -1
