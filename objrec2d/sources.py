@@ -18,6 +18,7 @@ from .demo import FPS, DemoScene
 log = logging.getLogger(__name__)
 
 IMAGE_SUFFIXES = {".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff", ".ppm", ".pgm", ".webp"}
+CLOUD_SUFFIXES = {".pcd", ".ply", ".xyz", ".pts"}
 
 
 def _natural_key(path: Path) -> list[object]:
@@ -146,6 +147,8 @@ class CaptureSource(FrameSource):
         while True:
             image = self._read()
             if image is None:
+                if index == 0 and not self.is_camera:
+                    raise SourceError(f"{self.name}: not a video OpenCV can decode (no frame could be read)")
                 if self._length is not None and index < self._length - 1:
                     raise SourceError(
                         f"{self.name}: frame {index} of {self._length} cannot be decoded (truncated or corrupt)"
@@ -202,4 +205,6 @@ def open_source(spec: str) -> FrameSource:
         raise SourceError(f"{spec}: no such file or folder (sources: demo, camera:N, an image, a video, a folder)")
     if path.suffix.lower() in IMAGE_SUFFIXES:
         return ImageFileSource(path)
+    if path.suffix.lower() in CLOUD_SUFFIXES:
+        raise SourceError(f"{spec}: a point cloud; it needs a 3d parameter file (this one is 2d)")
     return CaptureSource(str(path), spec, is_camera=False)

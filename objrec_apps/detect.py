@@ -1,7 +1,8 @@
 """objrec-detect: run any parameter file headless and stream the detected objects as JSON Lines.
 
 Exit codes: 0 done (also after Ctrl-C or SIGTERM, with everything written so far flushed); 1 a failure
-while running (a source that breaks mid-stream); 2 a user mistake (bad parameter file, source or option).
+while running (a source that breaks mid-stream, a full disk); 2 a user mistake (bad parameter file, option,
+or a source that cannot be opened or yields not even one frame).
 """
 
 from __future__ import annotations
@@ -172,7 +173,7 @@ def run(args: argparse.Namespace, stdout: IO[str]) -> int:
         raise
     except (SourceError, AnnotationError) as exc:
         print(f"{PROG}: error: {exc}", file=sys.stderr)
-        return 1
+        return 2 if frames == 0 else 1  # nothing read at all: the source itself is bad
     except OSError as exc:  # the output went away: a full disk, a closed device
         print(f"{PROG}: error: writing {args.output or 'the output'}: {exc.strerror or exc}", file=sys.stderr)
         return 1

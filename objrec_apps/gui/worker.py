@@ -82,6 +82,9 @@ class ProcessingWorker(QObject):
         self._reprocess_pending = False
         self._commands: list[Callable[[], None]] = []
         self._source: FrameSource | None = None
+        #: The data kind the source delivers, where known: frames of another kind never reach the pipeline
+        #: (after File > Open switches between 2D and 3D, until the new source is open).
+        self._source_kind: str | None = None
         self._iterator: Iterator[Frame] | None = None
         self._ended = False
         self._last_frame: Frame | None = None
@@ -178,13 +181,13 @@ class ProcessingWorker(QObject):
             except Exception as exc:  # SourceError, UnknownModuleError, a camera driver's own error
                 self.failed.emit(str(exc))
                 return
-            self._install(source)
+            self._install(source, kind)
 
         self._submit(command)
 
-    def set_source(self, source: FrameSource) -> None:
-        """Use an already opened source."""
-        self._submit(lambda: self._install(source))
+    def set_source(self, source: FrameSource, kind: str | None = None) -> None:
+        """Use an already opened source (of data ``kind``, where known)."""
+        self._submit(lambda: self._install(source, kind))
 
     def call(self, function: Callable[[], Any], done: Callable[[Any], None] | None = None) -> None:
         """Run ``function`` in the worker thread between two frames; ``done(result)`` then runs in the GUI."""
@@ -246,9 +249,10 @@ class ProcessingWorker(QObject):
             module.add_observer(self._watcher)
         self._watched = modules
 
-    def _install(self, source: FrameSource) -> None:
+    def _install(self, source: FrameSource, kind: str | None = None) -> None:
         old = self._source
         self._source, self._iterator, self._ended, self._last_frame = source, iter(source), False, None
+        self._source_kind = kind
         self._last_read = 0.0
         if old is not None and old is not source:
             old.close()
@@ -320,6 +324,10 @@ class ProcessingWorker(QObject):
         return frame
 
     def _process(self, frame: Frame) -> None:
+        wanted = self.director.system.kind
+        if self._source_kind is not None and wanted is not None and wanted != self._source_kind:
+            log.debug("frame %d of a %s source skipped: the pipeline is now %s", frame.index, self._source_kind, wanted)
+            return
         with self._cond:
             self._reprocess_pending = False
             self._processing_generation = self._generation

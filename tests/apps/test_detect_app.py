@@ -144,3 +144,16 @@ def test_a_full_disk_is_one_error_line(project_root):
     result = run(["params/hsv_demo.yaml", "-s", "demo", "-n", "3", "-o", "/dev/full"], project_root)
     assert result.returncode == 1
     assert "No space left on device" in result.stderr and "Traceback" not in result.stderr
+
+
+def test_a_source_that_yields_no_frame_is_a_user_mistake(project_root, tmp_path):
+    broken = tmp_path / "scan.pcd"
+    broken.write_text(
+        "# .PCD v0.7\nVERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\n"
+        "WIDTH 10\nHEIGHT 1\nPOINTS 10\nDATA binary\n\x00\x01"
+    )
+    result = run(["params/shape_demo.yaml", "-s", str(broken)], project_root)
+    assert result.returncode == 2, result.stderr
+    assert "scan.pcd" in result.stderr and "Traceback" not in result.stderr
+    result = run(["params/hsv_demo.yaml", "-s", str(broken)], project_root)
+    assert result.returncode == 2 and "needs a 3d parameter file" in result.stderr

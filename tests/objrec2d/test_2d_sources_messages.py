@@ -169,3 +169,14 @@ def test_detected_objects_serialise_with_the_ros_nesting():
     back = DetectedObject2DArray.from_json(array.to_json())
     assert back.objects == [obj] and back.header == array.header
     assert obj.polygon.centroid() == pytest.approx((7 / 3, 3.0))
+
+
+def test_files_that_are_not_videos_are_refused(tmp_path):
+    cloud = tmp_path / "scan.pcd"
+    cloud.write_text("# .PCD v0.7\nFIELDS x y z\n")
+    with pytest.raises(SourceError, match="needs a 3d parameter file"):
+        open_source(str(cloud))
+    text = tmp_path / "notes.avi"
+    text.write_text("not a video at all\n" * 100)
+    with pytest.raises(SourceError, match=r"notes\.avi: "):
+        list(open_source(str(text)))
