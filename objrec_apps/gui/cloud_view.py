@@ -6,7 +6,6 @@ coordinate frame at its centre with QPainter on top, so it needs no OpenGL and w
 
 from __future__ import annotations
 
-import math
 from collections.abc import Sequence
 from typing import Any
 
@@ -15,6 +14,8 @@ from PySide6.QtCore import QPointF, QRectF, QSize, Qt, Signal
 from PySide6.QtGui import QColor, QFont, QKeyEvent, QMouseEvent, QPainter, QPaintEvent, QPen, QWheelEvent
 from PySide6.QtWidgets import QSizePolicy, QWidget
 
+from objrec3d.messages import Quaternion
+
 from .cloud_render import NEAR, CloudScene, OrbitCamera, layer_colour, render
 from .images import ImageBuffer, rgb_qimage
 
@@ -22,17 +23,6 @@ BOX_COLOUR = QColor(255, 255, 0)
 AXIS_COLOURS = (QColor(255, 60, 60), QColor(60, 255, 60), QColor(80, 140, 255))
 #: Radians per pixel of mouse drag.
 ROTATE_SPEED = 0.008
-
-
-def quaternion_matrix(x: float, y: float, z: float, w: float) -> np.ndarray:
-    """The rotation of a unit quaternion (x, y, z, w); its columns are the box's local axes."""
-    n = math.sqrt(x * x + y * y + z * z + w * w) or 1.0
-    x, y, z, w = x / n, y / n, z / n, w / n
-    return np.array([
-        [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
-        [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
-        [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)],
-    ])
 
 
 def box_geometry(obj: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
@@ -47,7 +37,7 @@ def box_geometry(obj: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
         return None
     p, q = pose.position, pose.orientation
     centre = np.array([p.x, p.y, p.z], dtype=np.float64)
-    rotation = quaternion_matrix(q.x, q.y, q.z, q.w)
+    rotation = Quaternion(q.x, q.y, q.z, q.w).as_matrix()  # normalises, as a received message may need
     sides = np.array([box.width, box.height, box.depth], dtype=np.float64)
     if not (np.isfinite(centre).all() and np.isfinite(sides).all()):
         return None
