@@ -141,8 +141,10 @@ def _hit_box(o: np.ndarray, d: np.ndarray, center: np.ndarray, rotation: np.ndar
     with np.errstate(divide="ignore", invalid="ignore"):
         t1 = (-half - lo) / ld
         t2 = (half - lo) / ld
-    tmin = np.nanmax(np.minimum(t1, t2), axis=1)
-    tmax = np.nanmin(np.maximum(t1, t2), axis=1)
+    near, far = np.minimum(t1, t2), np.maximum(t1, t2)
+    # fmax/fmin skip the NaN of a ray parallel to a slab, as nanmax/nanmin do, at a fraction of the cost
+    tmin = np.fmax(np.fmax(near[:, 0], near[:, 1]), near[:, 2])
+    tmax = np.fmin(np.fmin(far[:, 0], far[:, 1]), far[:, 2])
     t = np.where((tmax >= tmin) & (tmin > 0), tmin, np.inf)
     return t
 
