@@ -53,10 +53,27 @@ class DockParams:
 ActionCallback = Callable[[GoalStatus, str], None]
 
 
-class DockAction:
+class _Action:
+    """What the dock and undock actions share: a result delivered once to whoever started them."""
+
+    def __init__(self) -> None:
+        self._callback: ActionCallback | None = None
+        self._result: tuple[GoalStatus, str] | None = None
+
+    def take_result(self) -> tuple[ActionCallback | None, GoalStatus, str] | None:
+        """The finished result once (for the simulation to deliver), else None."""
+        if self._result is None:
+            return None
+        status, text = self._result
+        self._result = None
+        return self._callback, status, text
+
+
+class DockAction(_Action):
     """Drives onto the dock; :meth:`control` gives (v, w) each step until it reports its result."""
 
     def __init__(self, station: DockingStation, robot_radius: float, params: DockParams | None = None) -> None:
+        super().__init__()
         self.station = station
         self.radius = robot_radius
         self.params = params or DockParams()
@@ -64,8 +81,6 @@ class DockAction:
         self.searching = False
         self.docked = False
         self._elapsed = 0.0
-        self._callback: ActionCallback | None = None
-        self._result: tuple[GoalStatus, str] | None = None
         self._why = ""
 
     def can_see_dock(self, pose: Pose2D) -> tuple[bool, str]:
@@ -102,14 +117,6 @@ class DockAction:
         self.searching = False
         self._result = (status, text)
 
-    def take_result(self) -> tuple[ActionCallback | None, GoalStatus, str] | None:
-        """The finished result once (for the simulation to deliver), else None."""
-        if self._result is None:
-            return None
-        status, text = self._result
-        self._result = None
-        return self._callback, status, text
-
     def control(self, pose: Pose2D, dt: float, collided: bool) -> tuple[float, float]:
         if not self.active:
             return 0.0, 0.0
@@ -137,15 +144,14 @@ class DockAction:
         return v, 2.0 * alpha
 
 
-class UndockAction:
+class UndockAction(_Action):
     """Backs straight off the dock so the robot can turn and drive away."""
 
     def __init__(self, params: DockParams | None = None) -> None:
+        super().__init__()
         self.params = params or DockParams()
         self.active = False
         self._start: Pose2D | None = None
-        self._callback: ActionCallback | None = None
-        self._result: tuple[GoalStatus, str] | None = None
         self._elapsed = 0.0
 
     def start(self, pose: Pose2D, callback: ActionCallback | None) -> None:
@@ -159,13 +165,6 @@ class UndockAction:
         if self.active:
             self.active = False
             self._result = (GoalStatus.PREEMPTED, "cancelled")
-
-    def take_result(self) -> tuple[ActionCallback | None, GoalStatus, str] | None:
-        if self._result is None:
-            return None
-        status, text = self._result
-        self._result = None
-        return self._callback, status, text
 
     def control(self, pose: Pose2D, dt: float, collided: bool) -> tuple[float, float]:
         if not self.active or self._start is None:
