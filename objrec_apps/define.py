@@ -10,7 +10,6 @@ Exit codes: 0 closed normally; 2 a user mistake (bad parameter file, source or o
 from __future__ import annotations
 
 import argparse
-import logging
 import os
 import signal
 import sys
@@ -27,12 +26,10 @@ from objrec_core import (
     kind_plugin,
 )
 
+from .cli import USER_ERROR, UserError, configure_logging, report
+
 PROG = "objrec-define"
 SYSTEMS = ("hsv", "feature", "shape")
-
-
-class UserError(Exception):
-    """Reported in one line on stderr, exit code 2."""
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -163,16 +160,12 @@ def run(args: argparse.Namespace) -> int:
 
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
-    logging.basicConfig(
-        level=logging.INFO if args.verbose else logging.WARNING,
-        format=f"{PROG}: %(levelname)s: %(message)s",
-        stream=sys.stderr,
-    )
+    configure_logging(PROG, args.verbose)
     try:
         return run(args)
     except UserError as exc:
-        print(f"{PROG}: error: {exc}", file=sys.stderr)
-        return 2
+        report(PROG, exc)
+        return USER_ERROR
     except KeyboardInterrupt:
         return 0
 

@@ -35,13 +35,10 @@ from objrec_core import (
 )
 
 from .annotation_writer import AnnotationError, AnnotationWriter
+from .cli import USER_ERROR, UserError, configure_logging, report
 
 log = logging.getLogger("objrec.detect")
 PROG = "objrec-detect"
-
-
-class UserError(Exception):
-    """A mistake in what the user asked for: reported in one line, exit code 2."""
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -172,10 +169,10 @@ def run(args: argparse.Namespace, stdout: IO[str]) -> int:
     except BrokenPipeError:
         raise
     except (SourceError, AnnotationError) as exc:
-        print(f"{PROG}: error: {exc}", file=sys.stderr)
+        report(PROG, exc)
         return 2 if frames == 0 else 1  # nothing read at all: the source itself is bad
     except OSError as exc:  # the output went away: a full disk, a closed device
-        print(f"{PROG}: error: writing {args.output or 'the output'}: {exc.strerror or exc}", file=sys.stderr)
+        report(PROG, f"writing {args.output or 'the output'}: {exc.strerror or exc}")
         return 1
     finally:
         if writer is not None:
@@ -196,18 +193,14 @@ def run(args: argparse.Namespace, stdout: IO[str]) -> int:
 
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
-    logging.basicConfig(
-        level=logging.INFO if args.verbose else logging.WARNING,
-        format=f"{PROG}: %(levelname)s: %(message)s",
-        stream=sys.stderr,
-    )
+    configure_logging(PROG, args.verbose)
     try:
         return run(args, sys.stdout)
     except UserError as exc:
-        print(f"{PROG}: error: {exc}", file=sys.stderr)
-        return 2
+        report(PROG, exc)
+        return USER_ERROR
     except PipelineError as exc:
-        print(f"{PROG}: error: {args.params}: {exc}", file=sys.stderr)
+        report(PROG, f"{args.params}: {exc}")
         return 2
     except BrokenPipeError:  # the reader went away (e.g. `| head`): not an error
         devnull = os.open(os.devnull, os.O_WRONLY)
