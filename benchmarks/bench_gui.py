@@ -27,7 +27,8 @@ from PySide6.QtCore import QEventLoop, QSettings, QTimer
 from PySide6.QtWidgets import QApplication
 
 from objrec2d import DemoSource
-from objrec_apps.gui import DefinitionGUI, build_preset
+from objrec_apps.define import starting_system
+from objrec_apps.gui import DefinitionGUI
 from objrec_core import Frame, FrameSource
 
 SIZE = (1600, 1000)  # room for four 640x480 views at about 0.75 scale
@@ -38,6 +39,7 @@ class PrerenderedDemo(FrameSource):
     (about 15 ms a frame on this kind of machine, which a camera does not have)."""
 
     name = "demo (pre-rendered)"
+    kind = "2d"
 
     def __init__(self, count: int = 90) -> None:
         self.frames = [frame for _, frame in zip(range(count), DemoSource(), strict=False)]
@@ -79,7 +81,8 @@ def run_for(app: QApplication, seconds: float) -> None:
 
 
 def open_window(source: object, fps_limit: float | None, settings: QSettings) -> DefinitionGUI:
-    gui = DefinitionGUI(build_preset("hsv"), source=source, settings=settings, fps_limit=fps_limit, view_mode="grid")
+    gui = DefinitionGUI(starting_system("hsv"), source=source, settings=settings, fps_limit=fps_limit,
+                        view_mode="grid")
     gui.resize(*SIZE)
     gui.show()
     return gui

@@ -1,4 +1,4 @@
-"""navigation: the seed's patrol (chapters 12-14) against a built-in 2D simulator.
+"""navigation: the patrol state machine against a built-in 2D simulator.
 
 ROS map_server maps (:mod:`navigation.maps`), the goal-pose file (:mod:`navigation.poses`), a simulated
 TurtleBot 2 with move_base-like planning and following, Kobuki and laptop batteries, a docking station,

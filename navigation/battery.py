@@ -152,7 +152,7 @@ class LaptopBattery:
 
     @property
     def is_low(self) -> bool:
-        """Low means below the threshold and not charging, the condition the seed's monitor checks."""
+        """Low means below the threshold and not charging, the condition the battery monitor checks."""
         return self.percentage < self.params.low_percent and not self.charging
 
     def update(self, dt: float) -> None:

@@ -1,4 +1,4 @@
-"""``objrec-patrol POSES_FILE --map MAP_YAML``: run the seed's patrol in the built-in simulator.
+"""``objrec-patrol POSES_FILE --map MAP_YAML``: run the inspection patrol in the built-in simulator.
 
 Results (the summary) go to stdout, diagnostics to stderr. A map or pose file that cannot be used gives
 one error line naming the file and the line or field, and exit code 2.
@@ -47,7 +47,7 @@ def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(
         prog=PROG,
         description="Patrol the goal poses of POSES_FILE on a ROS map in a built-in 2D simulator, with the "
-                    "seed's state machine (battery monitors, docking, shutdown).")
+                    "patrol state machine (battery monitors, docking, shutdown).")
     p.add_argument("poses", metavar="POSES_FILE", help="goal poses, one 'x, y, z, qx, qy, qz, qw' per line")
     p.add_argument("--map", required=True, metavar="MAP_YAML", help="ROS map_server YAML file")
     p.add_argument("--start", nargs=3, type=float, metavar=("X", "Y", "YAW"),

@@ -28,7 +28,7 @@ class DockingStation:
 
     @staticmethod
     def in_front_of(station_pose: Pose2D, distance: float = 1.0) -> DockingStation:
-        """The dock ``distance`` metres ahead of the seed's station pose, facing back at it."""
+        """The dock ``distance`` metres ahead of the station pose, facing back at it."""
         ahead = station_pose.ahead(distance)
         return DockingStation(Pose2D(ahead.x, ahead.y, wrap_angle(station_pose.yaw + math.pi)))
 

@@ -1,7 +1,7 @@
 """A small event bus: everything that happens in a run, stamped with simulation time.
 
 The state machine, move_base, batteries and docking all report here; the command writes it as JSON
-Lines (``--events``), tests read it back, and the battery monitors subscribe to it the way the seed's
+Lines (``--events``), tests read it back, and the battery monitors subscribe to it the way ROS
 smach monitors subscribed to ROS topics.
 """
 

@@ -1,7 +1,7 @@
 """A simulated laser scan, cast through the same obstacles the robot collides with.
 
-The TurtleBot 2 has no laser; its depth camera is turned into a narrow fake scan. The defaults follow the
-Stage model the seed used (58 degree field of view, 640 beams, 6 m). Rays are marched in half-cell steps,
+The TurtleBot 2 has no laser; its depth camera is turned into a narrow fake scan. The defaults follow a
+Stage model of that scan (58 degree field of view, 640 beams, 6 m). Rays are marched in half-cell steps,
 all beams at once with NumPy, so a scan costs a few milliseconds and is computed only when asked for.
 """
 

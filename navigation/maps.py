@@ -18,6 +18,8 @@ import cv2
 import numpy as np
 import yaml
 
+from strictio import InputError, YAMLLimits, read_text, yaml_text
+
 from .geometry import Pose2D
 
 log = logging.getLogger(__name__)
@@ -26,6 +28,8 @@ FREE = 0
 OCCUPIED = 100
 UNKNOWN = -1
 MODES = ("trinary", "scale", "raw")
+#: A map YAML is a few lines; a megabyte leaves room for comments and never for a bomb.
+MAP_YAML_LIMITS = YAMLLimits(max_bytes=1024 * 1024, max_depth=8)
 
 
 class MapError(ValueError):
@@ -144,17 +148,12 @@ def load_map_metadata(yaml_path: str | Path) -> MapMetadata:
     """Read and validate a map YAML file (not the image); ``image`` is resolved against the YAML's folder."""
     path = Path(yaml_path)
     try:
-        text = path.read_text(encoding="utf-8")
-    except FileNotFoundError:
-        raise MapError(f"{path}: map file not found") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise MapError(f"{path}: cannot read map file ({exc})") from None
-    try:
-        raw = yaml.safe_load(text)
-    except yaml.YAMLError as exc:
-        mark = getattr(exc, "problem_mark", None)
-        where = f"line {mark.line + 1}: " if mark is not None else ""
-        raise MapError(f"{path}: {where}not valid YAML ({getattr(exc, 'problem', exc)})") from None
+        text = read_text(path, MAP_YAML_LIMITS.max_bytes)
+        raw = yaml_text(text, path, MAP_YAML_LIMITS)
+    except InputError as exc:
+        if exc.message == "file not found":
+            raise MapError(f"{path}: map file not found") from None
+        raise MapError(str(exc)) from None
     if not isinstance(raw, dict):
         raise MapError(f"{path}: expected a YAML mapping of map fields, got {type(raw).__name__}")
     lines = _key_lines(text)
@@ -205,7 +204,7 @@ def load_map_metadata(yaml_path: str | Path) -> MapMetadata:
 
 
 def _read_image(path: Path, yaml_path: Path) -> np.ndarray:
-    where = _where(yaml_path, _key_lines(yaml_path.read_text(encoding="utf-8")), "image")
+    where = _where(yaml_path, _key_lines(read_text(yaml_path, MAP_YAML_LIMITS.max_bytes)), "image")
     if not path.is_file():
         raise MapError(f"{where}: image file {path} not found")
     pixels = cv2.imread(str(path), cv2.IMREAD_UNCHANGED)

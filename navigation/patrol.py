@@ -1,7 +1,7 @@
-"""The patrol state machine of the seed's chapter 14, built with ``transitions``.
+"""The patrol state machine, built with ``transitions``.
 
 States and transitions are data (:func:`patrol_states`, :func:`patrol_transitions`); this module's
-class only supplies what each state *does* when entered or left. Names and outcomes are the seed's:
+class only supplies what each state *does* when entered or left. Names and outcomes follow the ROS patrol's:
 
 * ``MONITORED_PATROL`` (parallel) runs ``PATROL`` (``POSE_0``, ``POSE_1``, ... in a loop),
   ``ROBOT_BATTERY_MONITOR`` and ``LAPTOP_BATTERY_MONITOR``; the first to finish ends the other two,
@@ -137,7 +137,7 @@ class PatrolStats:
 
 
 class PatrolMachine:
-    """The seed's patrol, driving a :class:`~navigation.simulation.Simulation`."""
+    """The patrol, driving a :class:`~navigation.simulation.Simulation`."""
 
     def __init__(self, sim: Simulation, goals: list[Pose2D] | tuple[Pose2D, ...], station_pose: Pose2D | None,
                  max_laps: int | None = None, resume_after_charging: bool = False,

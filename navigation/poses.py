@@ -1,4 +1,4 @@
-"""The seed's goal-pose file: one ``x, y, z, qx, qy, qz, qw`` per line, in driving order.
+"""The goal-pose file: one ``x, y, z, qx, qy, qz, qw`` per line, in driving order.
 
 ``#`` starts a comment, blank lines are ignored, and an optional ``station_pose:`` line gives the pose
 about one metre in front of the docking station (it may be left empty when there is no station).
@@ -11,7 +11,12 @@ import math
 from dataclasses import dataclass
 from pathlib import Path
 
+from strictio import InputError, read_text
+
 from .geometry import Pose2D, quaternion_from_yaw, yaw_from_quaternion
+
+#: A pose file holds one line per goal: 4 MiB is tens of thousands of goals.
+POSE_FILE_LIMIT = 4 * 1024 * 1024
 
 STATION_KEY = "station_pose:"
 
@@ -80,11 +85,11 @@ def load_poses(path: str | Path) -> PoseFile:
     """Read a goal-pose file; raises :class:`PoseFileError` naming file, line and text on bad input."""
     path = Path(path)
     try:
-        text = path.read_text(encoding="utf-8")
-    except FileNotFoundError:
-        raise PoseFileError(f"{path}: pose file not found") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise PoseFileError(f"{path}: cannot read pose file ({exc})") from None
+        text = read_text(path, POSE_FILE_LIMIT)
+    except InputError as exc:
+        if exc.message == "file not found":
+            raise PoseFileError(f"{path}: pose file not found") from None
+        raise PoseFileError(str(exc)) from None
     return parse_poses(text, path)
 
 
@@ -95,7 +100,7 @@ def format_pose(pose: Pose2D) -> str:
 
 def save_poses(path: str | Path, goals: list[Pose2D] | tuple[Pose2D, ...], station: Pose2D | None = None,
                comment: str = "") -> Path:
-    """Write goals (and the station) in the seed's format, so files made here load in the seed too."""
+    """Write goals (and the station) in the ROS patrol's format, so files made here load in the C++/ROS patrol too."""
     path = Path(path)
     lines = [f"# {c}" for c in comment.splitlines()] if comment else []
     lines += ["# x, y, z, qx, qy, qz, qw", f"{STATION_KEY} {format_pose(station)}" if station else STATION_KEY, ""]

@@ -101,7 +101,7 @@ class Simulation:
         self.collision_points: list[tuple[float, float]] = []
         self.docked = False
         self.halted = False
-        # A velocity command used when no action drives the robot, like keyboard teleop in the seed's
+        # A velocity command used when no action drives the robot, like keyboard teleop in a
         # mapping chapter; tests use it to drive the base by hand.
         self.teleop: tuple[float, float] | None = None
 
@@ -116,7 +116,7 @@ class Simulation:
         self.undock_action.start(self.robot.pose, callback)
 
     def halt(self) -> None:
-        """Stop everything and the base: what the seed's SHUTDOWN does to the robot."""
+        """Stop everything and the base: what SHUTDOWN does to the robot."""
         self.move_base.cancel_goal("shutdown")
         if self.dock_action is not None:
             self.dock_action.cancel()

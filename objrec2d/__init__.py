@@ -1,4 +1,5 @@
-"""objrec2d: image filters and detectors on OpenCV, image sources and the 2D detected-object messages.
+"""objrec2d: the ``2d`` data kind: image filters and detectors on OpenCV, image sources and the 2D
+detected-object messages.
 
 Build a pipeline in a script::
 
@@ -6,8 +7,11 @@ Build a pipeline in a script::
     from objrec_core import DetectionDirector, RecognitionSystem
     system = RecognitionSystem([HSVFilter(h_min=100, h_max=130, s_min=120), MorphologyFilter(), BinaryDetector()],
                                object_name="blue")
-    for objects in DetectionDirector(system).run(open_source("demo"), max_frames=10):
+    for objects in DetectionDirector(system).run(open_source("demo:frames=10")):
         print(objects.to_json())
+
+The apps reach all of this through the kind contract (``objrec_core.get_kind("2d")``, ``open_source(spec,
+"2d")``) and the entry points; this package imports neither Qt nor the 3D kind.
 """
 
 from .annotate import draw_objects
@@ -17,12 +21,23 @@ from .demo import DemoObject, DemoScene, DemoTarget
 from .feature_detector import FeatureDetector
 from .features import DetectionStatus, FeatureConfig, FeatureMatch, FeatureUnavailable, available_feature_types
 from .hsv_filter import HSVFilter
+from .kind import ImageKind
 from .messages import DetectedObject2D, DetectedObject2DArray, Point32, Polygon
 from .morphology_filter import MorphologyFilter
-from .sources import CaptureSource, DemoSource, FolderSource, ImageFileSource, open_source, read_image
+from .sources import (
+    CameraSource,
+    CaptureSource,
+    DemoSource,
+    FolderSource,
+    ImageFileSource,
+    VideoSource,
+    open_source,
+    read_image,
+)
 
 __all__ = [
     "BinaryDetector",
+    "CameraSource",
     "CaptureSource",
     "DemoObject",
     "DemoScene",
@@ -40,9 +55,11 @@ __all__ = [
     "ImageDetector",
     "ImageFileSource",
     "ImageFilter",
+    "ImageKind",
     "MorphologyFilter",
     "Point32",
     "Polygon",
+    "VideoSource",
     "as_bgr",
     "as_gray",
     "available_feature_types",

@@ -7,8 +7,6 @@ from collections.abc import Iterable
 import cv2
 import numpy as np
 
-from objrec_core import Frame
-
 from .base import as_bgr
 from .messages import DetectedObject2D
 
@@ -30,8 +28,3 @@ def draw_objects(image: np.ndarray, objects: Iterable[DetectedObject2D], thickne
             canvas, obj.name, (int(x), max(12, int(y) - 5)), cv2.FONT_HERSHEY_SIMPLEX, 0.5, colour, 1, cv2.LINE_AA
         )
     return canvas
-
-
-def annotate(frame: Frame, array: object) -> np.ndarray:
-    """The ``--annotate`` picture: the original frame with the polygons drawn on it."""
-    return draw_objects(frame.data, getattr(array, "objects", []))

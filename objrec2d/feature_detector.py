@@ -18,7 +18,7 @@ from typing import Any
 import cv2
 import numpy as np
 
-from objrec_core import Bool, Choice, Float, Int, ParameterError, Rect, SelectionRefused
+from objrec_core import Bool, Change, Choice, Float, Int, Rect, SelectionRefused
 
 from .base import ImageDetector, as_gray
 from .features.debug import keypoints_view, side_by_side
@@ -27,9 +27,9 @@ from .features.geometry import (
     PolygonLimits,
     check_quadrilateral,
     estimate_homography,
-    homography_flag,
     inlier_coverage,
     project,
+    unavailable_homography_methods,
 )
 from .features.matching import MATCHERS, TrainedMatcher
 from .features.result import DetectionStatus, FeatureMatch
@@ -48,6 +48,8 @@ from .features.types import (
     FeatureUnavailable,
     check_available,
     create_feature2d,
+    types_using,
+    unavailable_feature_types,
 )
 from .messages import DetectedObject2D, Polygon
 
@@ -68,44 +70,79 @@ class FeatureDetector(ImageDetector):
     """Finds the selected target by keypoint matching and a homography; see docs/feature-detection.md."""
 
     # -- the feature configuration (changing any of these recomputes the target) -----------------------
+    # Each type's own settings matter (and are shown) only while that type is chosen; types_using reads
+    # TYPE_SETTINGS, the one table of which setting belongs to which type.
     feature_type = Choice(
-        "ORB", FEATURE_TYPES, "Keypoint detector and descriptor: ORB is fastest, SIFT most robust; SURF needs non-free"
+        "ORB", FEATURE_TYPES, "Keypoint detector and descriptor: ORB is fastest, SIFT most robust; SURF needs non-free",
+        unavailable=unavailable_feature_types,
     )
-    max_features = Int(1000, "ORB, SIFT: the strongest keypoints kept per image", min=10, max=100000, step=10)
-    orb_scale_factor = Float(1.2, "ORB: scale step between pyramid levels", min=1.01, max=2.0, step=0.05)
-    orb_levels = Int(8, "ORB: pyramid levels (more levels find the target over a wider range of sizes)", min=1, max=16)
-    orb_fast_threshold = Int(20, "ORB: FAST corner threshold; lower finds more corners in flat images", min=1, max=100)
+    max_features = Int(
+        1000, "ORB, SIFT: the strongest keypoints kept per image", min=10, max=100000, soft_max=5000, step=10,
+        relevant={"feature_type": types_using("max_features")},
+    )
+    orb_scale_factor = Float(
+        1.2, "ORB: scale step between pyramid levels", min=1.01, max=2.0, step=0.05,
+        relevant={"feature_type": types_using("orb_scale_factor")},
+    )
+    orb_levels = Int(
+        8, "ORB: pyramid levels (more levels find the target over a wider range of sizes)", min=1, max=16,
+        relevant={"feature_type": types_using("orb_levels")},
+    )
+    orb_fast_threshold = Int(
+        20, "ORB: FAST corner threshold; lower finds more corners in flat images", min=1, max=100,
+        relevant={"feature_type": types_using("orb_fast_threshold")},
+    )
     sift_contrast_threshold = Float(
         0.04, "SIFT: minimum local contrast; lower finds more keypoints in low-contrast images",
-        min=0.001, max=0.5, step=0.005,
+        min=0.001, max=0.5, step=0.005, relevant={"feature_type": types_using("sift_contrast_threshold")},
     )
-    akaze_threshold = Float(0.001, "AKAZE: detector response threshold", min=0.00001, max=0.1, step=0.0005)
-    kaze_threshold = Float(0.001, "KAZE: detector response threshold", min=0.00001, max=0.1, step=0.0005)
-    brisk_threshold = Int(30, "BRISK: AGAST corner threshold", min=1, max=255)
-    surf_hessian_threshold = Float(400.0, "SURF: Hessian threshold", min=1.0, max=10000.0, step=50.0)
+    akaze_threshold = Float(
+        0.001, "AKAZE: detector response threshold", min=0.00001, max=0.1, step=0.0005,
+        relevant={"feature_type": types_using("akaze_threshold")},
+    )
+    kaze_threshold = Float(
+        0.001, "KAZE: detector response threshold", min=0.00001, max=0.1, step=0.0005,
+        relevant={"feature_type": types_using("kaze_threshold")},
+    )
+    brisk_threshold = Int(
+        30, "BRISK: AGAST corner threshold", min=1, max=255, relevant={"feature_type": types_using("brisk_threshold")}
+    )
+    surf_hessian_threshold = Float(
+        400.0, "SURF: Hessian threshold", min=1.0, max=10000.0, soft_max=2000.0, step=50.0,
+        relevant={"feature_type": types_using("surf_hessian_threshold")},
+    )
     # -- matching --------------------------------------------------------------------------------------
     matcher = Choice(
         "brute_force", MATCHERS, "brute_force is exact; flann (LSH for binary, KD-trees for float) suits big targets"
     )
     ratio_test = Bool(True, "Drop ambiguous matches (Lowe's ratio test)")
-    ratio = Float(0.8, "Ratio test: best distance must be below this times the 2nd best", min=0.1, max=1.0, step=0.05)
+    ratio = Float(
+        0.8, "Ratio test: best distance must be below this times the 2nd best", min=0.1, max=1.0, step=0.05,
+        relevant={"ratio_test": (True,)},
+    )
     cross_check = Bool(False, "Keep a match only if it is also the best the other way round")
-    min_matches = Int(10, "Fewest good matches worth fitting a homography to", min=4, max=10000)
+    min_matches = Int(10, "Fewest good matches worth fitting a homography to", min=4, max=10000, soft_max=200)
     # -- homography and sanity checks ------------------------------------------------------------------
     homography_method = Choice(
-        "USAC_MAGSAC", HOMOGRAPHY_METHODS, "Robust estimator: USAC_MAGSAC is the most accurate, RHO the fastest"
+        "USAC_MAGSAC", HOMOGRAPHY_METHODS, "Robust estimator: USAC_MAGSAC is the most accurate, RHO the fastest",
+        unavailable=unavailable_homography_methods,
     )
     reprojection_threshold = Float(
-        3.0, "Largest reprojection error of an inlier, in pixels (LMEDS ignores it)", min=0.1, max=50.0, step=0.5
+        3.0, "Largest reprojection error of an inlier, in pixels (LMEDS ignores it)", min=0.1, max=50.0,
+        soft_max=10.0, step=0.5,
+        relevant={"homography_method": tuple(m for m in HOMOGRAPHY_METHODS if m != "LMEDS")},
     )
-    min_inliers = Int(10, "Fewest homography inliers for a detection", min=4, max=10000)
+    min_inliers = Int(10, "Fewest homography inliers for a detection", min=4, max=10000, soft_max=200)
     min_inlier_coverage = Float(
         0.1, "Share of the selection the inliers must span; bunched or collinear inliers extrapolate badly",
         min=0.0, max=1.0, step=0.05,
     )
-    min_area = Float(100.0, "Smallest plausible area of the found outline, in px²", min=0.0, max=1e7, step=10.0)
+    min_area = Float(
+        100.0, "Smallest plausible area of the found outline, in px²", min=0.0, max=1e7, soft_max=50000.0, step=10.0
+    )
     max_area_fraction = Float(
-        4.0, "Largest plausible area of the found outline, as a multiple of the frame's", min=0.01, max=100.0, step=0.5
+        4.0, "Largest plausible area of the found outline, as a multiple of the frame's", min=0.01, max=100.0,
+        soft_max=10.0, step=0.5,
     )
     min_corner_angle = Float(
         15.0, "Smallest corner angle of the found outline in degrees; flatter means squashed", min=0.0, max=89.0
@@ -124,28 +161,13 @@ class FeatureDetector(ImageDetector):
         super().__init__(id, object_name=object_name, **parameters)
 
     # -- parameters ------------------------------------------------------------------------------------
-    def validate_parameters(self, values: Mapping[str, Any]) -> dict[str, Any]:
-        """Declared checks, plus: the feature type and homography method must exist in this OpenCV."""
-        clean = super().validate_parameters(values)
-        if "feature_type" in clean:
-            try:
-                check_available(clean["feature_type"])
-            except FeatureUnavailable as exc:
-                raise ParameterError(self.label, "feature_type", clean["feature_type"], str(exc)) from None
-        if "homography_method" in clean:
-            try:
-                homography_flag(clean["homography_method"])
-            except FeatureUnavailable as exc:
-                raise ParameterError(self.label, "homography_method", clean["homography_method"], str(exc)) from None
-        return clean
-
     def parameters_changed(self, changed: set[str]) -> None:
         """A new feature configuration recomputes the target from its stored image right away (not at
         the next frame), so the GUI shows the new keypoints at once; too few of them is logged."""
         if changed & FEATURE_PARAMETERS and self._model is not None:
             p = self.params
-            model = self._model_for(FeatureConfig.from_parameters(p), p["matcher"])
-            needed = max(p["min_matches"], p["min_inliers"])
+            model = self._model_for(FeatureConfig.from_parameters(p), p.matcher)
+            needed = max(p.min_matches, p.min_inliers)
             if isinstance(model, _Model) and len(model.target) < needed:
                 log.warning(
                     "%s: with %s the target has %d keypoints, fewer than the %d needed; it cannot be found",
@@ -168,7 +190,7 @@ class FeatureDetector(ImageDetector):
             target = target_from_selection(frame, rect, config)
         except (TargetError, FeatureUnavailable) as exc:
             raise SelectionRefused(str(exc)) from None
-        needed = max(p["min_matches"], p["min_inliers"])
+        needed = max(p.min_matches, p.min_inliers)
         if len(target) < needed:
             what = "no" if len(target) == 0 else f"only {len(target)}"
             plural = "" if len(target) == 1 else "s"
@@ -176,9 +198,9 @@ class FeatureDetector(ImageDetector):
                 f"the {target.rect.width}x{target.rect.height} px selection has {what} {config.type} keypoint{plural}, "
                 f"{needed} are needed (min_matches/min_inliers): the area is too plain; select a textured one"
             )
-        self._install(_Model(target, TrainedMatcher(target.descriptors, target.norm, p["matcher"])))
+        self._install(_Model(target, TrainedMatcher(target.descriptors, target.norm, p.matcher)))
         log.info("%s: target %s with %d %s keypoints", self.label, target.rect, len(target), config.type)
-        self.notify()
+        self.notify([Change(self, "state")])
 
     def set_target(self, image: np.ndarray, rect: Rect | None = None) -> None:
         """Use ``rect`` of ``image`` (the whole image by default) as the target, as a selection would."""
@@ -188,7 +210,7 @@ class FeatureDetector(ImageDetector):
 
     def clear_target(self) -> None:
         self._install(None)
-        self.notify()
+        self.notify([Change(self, "state")])
 
     def _install(self, model: _Model | None) -> None:
         with self._model_lock:
@@ -246,7 +268,7 @@ class FeatureDetector(ImageDetector):
         _check_image(frame)
         p = self.params
         config = FeatureConfig.from_parameters(p)
-        model = self._model_for(config, p["matcher"])
+        model = self._model_for(config, p.matcher)
         if isinstance(model, str):
             return self._finish(FeatureMatch(DetectionStatus.NO_TARGET, model, frame.shape), None)
         target = model.target
@@ -255,35 +277,35 @@ class FeatureDetector(ImageDetector):
             return self._finish(FeatureMatch(DetectionStatus.NO_TARGET, reason, frame.shape), target)
         keypoints, descriptors = compute_features(self._frame_extractor(config), as_gray(frame))
         frame_points = cv2.KeyPoint_convert(keypoints).reshape(-1, 2) if keypoints else np.empty((0, 2), np.float32)
-        matches = model.matcher.match(descriptors, p["ratio"] if p["ratio_test"] else None, p["cross_check"])
+        matches = model.matcher.match(descriptors, p.ratio if p.ratio_test else None, p.cross_check)
         found = FeatureMatch(DetectionStatus.TOO_FEW_MATCHES, None, frame.shape, frame_points, matches)
-        if len(matches) < p["min_matches"]:
-            reason = f"too few matches: {len(matches)} of {len(keypoints)} keypoints, min_matches is {p['min_matches']}"
+        if len(matches) < p.min_matches:
+            reason = f"too few matches: {len(matches)} of {len(keypoints)} keypoints, min_matches is {p.min_matches}"
             return self._finish(_with(found, reason=reason), target)
         homography, inliers = estimate_homography(
             target.points[matches.target_idx],
             frame_points[matches.frame_idx],
-            p["homography_method"],
-            p["reprojection_threshold"],
+            p.homography_method,
+            p.reprojection_threshold,
         )
         found = _with(found, inliers=inliers, homography=homography)
         if homography is None:
             reason = f"no homography fits the {len(matches)} matches"
             return self._finish(_with(found, status=DetectionStatus.NO_HOMOGRAPHY, reason=reason), target)
-        if inliers.sum() < p["min_inliers"]:
+        if inliers.sum() < p.min_inliers:
             count = int(inliers.sum())
-            reason = f"too few inliers: {count} of {len(matches)} matches, min_inliers is {p['min_inliers']}"
+            reason = f"too few inliers: {count} of {len(matches)} matches, min_inliers is {p.min_inliers}"
             return self._finish(_with(found, status=DetectionStatus.TOO_FEW_INLIERS, reason=reason), target)
         roi = target.roi
         coverage = inlier_coverage(target.points[matches.target_idx[inliers]], roi.width * roi.height)
-        if coverage < p["min_inlier_coverage"]:
+        if coverage < p.min_inlier_coverage:
             reason = (
                 f"inliers bunched: they span {coverage:.0%} of the target, "
-                f"min_inlier_coverage is {p['min_inlier_coverage']:.0%}"
+                f"min_inlier_coverage is {p.min_inlier_coverage:.0%}"
             )
             return self._finish(_with(found, status=DetectionStatus.BUNCHED_INLIERS, reason=reason), target)
         quadrilateral, w = project(homography, target.corners())
-        limits = PolygonLimits(p["min_area"], p["max_area_fraction"], p["min_corner_angle"])
+        limits = PolygonLimits(p.min_area, p.max_area_fraction, p.min_corner_angle)
         problem = check_quadrilateral(quadrilateral, w, frame.shape, limits)
         found = _with(found, quadrilateral=quadrilateral)
         if problem is not None:
@@ -323,7 +345,7 @@ class FeatureDetector(ImageDetector):
         result, target = last if last is not None else (None, self.target)
         if result is not None and tuple(result.frame_shape[:2]) != tuple(frame.shape[:2]):
             result = None  # a result from another frame would put points in the wrong places
-        if self.params["debug_view"] == "keypoints":
+        if self.params.debug_view == "keypoints":
             return keypoints_view(frame, result)
         return side_by_side(frame, target, result)
 
@@ -346,13 +368,14 @@ class FeatureDetector(ImageDetector):
     def prepare_state(self, state: Any, parameters: Mapping[str, Any]) -> _Model | None:
         """Decode the saved target and recompute its keypoints with the configuration ``parameters``
         select, which must be the saved one; nothing here changes the detector."""
-        check_available(parameters["feature_type"])
+        p = self.Parameters(**{**self.default_values(), **parameters})
+        check_available(p.feature_type)
         if state is None:
             return None
         if not isinstance(state, Mapping) or set(state) != {"target"}:
             raise ValueError(f"expected a mapping with the single key 'target', found {state!r:.80}")
-        target = target_from_state(state["target"], FeatureConfig.from_parameters(parameters))
-        matcher = TrainedMatcher(target.descriptors, target.norm, parameters["matcher"]) if len(target) else None
+        target = target_from_state(state["target"], FeatureConfig.from_parameters(p))
+        matcher = TrainedMatcher(target.descriptors, target.norm, p.matcher) if len(target) else None
         return _Model(target, matcher)
 
     def apply_state(self, prepared: _Model | None) -> None:

@@ -13,9 +13,9 @@ from .base import ImageFilter, as_bgr
 class HSVFilter(ImageFilter):
     """Colour thresholding in HSV (OpenCV ranges: hue 0..179, saturation and value 0..255).
 
-    The result is a single-channel mask (255 inside the ranges), not an RGB image: the seed converted it to
-    RGB and back only to satisfy its framework. When ``h_min > h_max`` the hue range wraps around 0, so one
-    filter selects red (e.g. 170..10).
+    The result is a single-channel mask (255 inside the ranges), not an RGB image: the next stage wants a
+    mask, and a conversion to RGB and back would only cost time. When ``h_min > h_max`` the hue range wraps
+    around 0, so one filter selects red (e.g. 170..10).
     """
 
     h_min = Int(0, "Lowest hue kept; above h_max the range wraps around 0 (red)", min=0, max=179)
@@ -28,9 +28,9 @@ class HSVFilter(ImageFilter):
     def filter(self, frame: np.ndarray) -> np.ndarray:
         p = self.params
         hsv = cv2.cvtColor(as_bgr(frame), cv2.COLOR_BGR2HSV)
-        low_sv, high_sv = (p["s_min"], p["v_min"]), (p["s_max"], p["v_max"])
-        if p["h_min"] <= p["h_max"]:
-            return cv2.inRange(hsv, (p["h_min"], *low_sv), (p["h_max"], *high_sv))
-        upper = cv2.inRange(hsv, (p["h_min"], *low_sv), (179, *high_sv))
-        lower = cv2.inRange(hsv, (0, *low_sv), (p["h_max"], *high_sv))
+        low_sv, high_sv = (p.s_min, p.v_min), (p.s_max, p.v_max)
+        if p.h_min <= p.h_max:
+            return cv2.inRange(hsv, (p.h_min, *low_sv), (p.h_max, *high_sv))
+        upper = cv2.inRange(hsv, (p.h_min, *low_sv), (179, *high_sv))
+        lower = cv2.inRange(hsv, (0, *low_sv), (p.h_max, *high_sv))
         return cv2.bitwise_or(upper, lower, dst=upper)

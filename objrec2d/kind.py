@@ -1,6 +1,43 @@
-"""The ``2d`` data-kind plug-in: how the apps open image sources and draw 2D results."""
+"""The ``2d`` data kind (entry point ``objrec.kinds``): images as OpenCV arrays, objects as polygons."""
 
-from .annotate import annotate
-from .sources import open_source
+from __future__ import annotations
 
-__all__ = ["annotate", "open_source"]
+from typing import Any
+
+import numpy as np
+
+from objrec_core import DetectedObjectArray, Frame, FrameKindError, Kind, Outline
+
+from .annotate import draw_objects
+from .base import as_bgr
+from .messages import DetectedObject2DArray
+
+
+class ImageKind(Kind):
+    """Frames are ``uint8`` images, H x W (a mask) or H x W x 1/3/4 (BGR, BGRA); filters may return masks."""
+
+    name = "2d"
+    title = "images"
+    object_array_type = DetectedObject2DArray
+
+    def check_frame(self, data: Any) -> None:
+        if not isinstance(data, np.ndarray):
+            raise FrameKindError(f"expected an image (a NumPy array), got {type(data).__name__}")
+        if data.ndim not in (2, 3) or (data.ndim == 3 and data.shape[2] not in (1, 3, 4)) or 0 in data.shape:
+            raise FrameKindError(f"expected an image (H x W or H x W x 1/3/4), got an array of shape {data.shape}")
+
+    def preview(self, data: Any) -> np.ndarray:
+        self.check_frame(data)
+        if data.dtype == np.bool_:
+            data = data.astype(np.uint8) * 255
+        return np.ascontiguousarray(as_bgr(data if data.dtype == np.uint8 else np.clip(data, 0, 255).astype(np.uint8)))
+
+    def annotate(self, frame: Frame, objects: DetectedObjectArray) -> np.ndarray:
+        return draw_objects(frame.data, objects.objects)
+
+    def outlines(self, objects: DetectedObjectArray) -> list[Outline]:
+        return [Outline(o.name, polygon=np.asarray(o.polygon.xy(), dtype=np.float32).reshape(-1, 2))
+                for o in objects.objects]
+
+    def copy_frame(self, data: Any) -> Any:
+        return data.copy() if isinstance(data, np.ndarray) else super().copy_frame(data)

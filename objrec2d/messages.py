@@ -1,4 +1,4 @@
-"""2D detected-object messages, field for field as the seed's ``object_detection_2d_msgs``."""
+"""2D detected-object messages, field for field as the ROS ``object_detection_2d_msgs``."""
 
 from __future__ import annotations
 

@@ -51,7 +51,7 @@ class MorphologyFilter(ImageFilter):
 
     def filter(self, frame: np.ndarray) -> np.ndarray:
         p = self.params
-        if p["iterations"] == 0:
+        if p.iterations == 0:
             return frame
-        kernel = self._kernel_for(p["kernel_size"], p["kernel_shape"])
-        return cv2.morphologyEx(frame, self.OPERATIONS[p["operation"]], kernel, iterations=p["iterations"])
+        kernel = self._kernel_for(p.kernel_size, p.kernel_shape)
+        return cv2.morphologyEx(frame, self.OPERATIONS[p.operation], kernel, iterations=p.iterations)

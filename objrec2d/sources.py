@@ -1,4 +1,5 @@
-"""Image sources, chosen by one string: ``camera:N``, a video file, an image file, a folder, or ``demo``."""
+"""Image sources (plug-ins of the ``objrec.sources`` group): ``demo[:seed=N,frames=N]``, ``camera:N``, an
+image file, a video file, or a folder of images."""
 
 from __future__ import annotations
 
@@ -7,18 +8,19 @@ import re
 import time
 from collections.abc import Callable, Iterator
 from pathlib import Path
+from typing import Any
 
 import cv2
 import numpy as np
 
-from objrec_core import Frame, FrameSource, SourceError
+from objrec_core import Frame, FrameSource, Int, SourceError, SourceSpec
 
 from .demo import FPS, DemoScene
 
 log = logging.getLogger(__name__)
 
-IMAGE_SUFFIXES = {".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff", ".ppm", ".pgm", ".webp"}
-CLOUD_SUFFIXES = {".pcd", ".ply", ".xyz", ".pts"}
+IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff", ".ppm", ".pgm", ".webp")
+VIDEO_SUFFIXES = (".avi", ".mp4", ".mkv", ".mov", ".m4v", ".mpg", ".mpeg", ".webm", ".wmv", ".ogv", ".flv")
 
 
 def _natural_key(path: Path) -> list[object]:
@@ -39,6 +41,15 @@ def read_image(path: Path) -> np.ndarray:
 class ImageFileSource(FrameSource):
     """One image, given once (or ``repeat`` times, to tune on a still picture)."""
 
+    kind = "2d"
+    extensions = IMAGE_SUFFIXES
+    summary = "an image file"
+
+    @classmethod
+    def from_spec(cls, spec: SourceSpec, options: dict[str, Any]) -> ImageFileSource:
+        assert spec.path is not None
+        return cls(spec.path)
+
     def __init__(self, path: str | Path, repeat: int = 1) -> None:
         self.path = Path(path)
         self.name = str(path)
@@ -57,6 +68,15 @@ class ImageFileSource(FrameSource):
 
 class FolderSource(FrameSource):
     """Every image in a folder, in natural order. A file that cannot be decoded is reported and skipped."""
+
+    kind = "2d"
+    folders = True
+    summary = "a folder of images"
+
+    @classmethod
+    def from_spec(cls, spec: SourceSpec, options: dict[str, Any]) -> FolderSource:
+        assert spec.path is not None
+        return cls(spec.path)
 
     def __init__(self, path: str | Path) -> None:
         self.path = Path(path)
@@ -89,10 +109,10 @@ class FolderSource(FrameSource):
 
 
 class CaptureSource(FrameSource):
-    """A video file or camera through ``cv2.VideoCapture``.
+    """The shared base of ``VideoSource`` and ``CameraSource``: frames through ``cv2.VideoCapture``.
 
     A camera that drops out is retried ``retries`` times, ``retry_delay`` seconds apart, then reported;
-    a file simply ends.
+    a file simply ends. ``opener`` makes the capture (tests pass a fake camera).
     """
 
     def __init__(
@@ -124,6 +144,10 @@ class CaptureSource(FrameSource):
     @property
     def length(self) -> int | None:
         return self._length
+
+    @property
+    def rate(self) -> float | None:
+        return None if self.is_camera else self._fps
 
     def _read(self) -> np.ndarray | None:
         ok, image = self._capture.read()
@@ -162,17 +186,106 @@ class CaptureSource(FrameSource):
         self._capture.release()
 
 
+def _is_text(path: Path) -> bool:
+    """Whether a file starts like text (no video does): empty, or UTF-8 without NUL bytes."""
+    try:
+        with path.open("rb") as stream:
+            head = stream.read(1024)
+    except OSError:
+        return False  # let opening it report the problem
+    if b"\0" in head:
+        return False
+    try:
+        head.decode("utf-8")
+    except UnicodeDecodeError:
+        return False
+    return True
+
+
+class VideoSource(CaptureSource):
+    """A video file through OpenCV's FFmpeg. Any other binary file no source reads by its extension is tried
+    as a video too (containers come with many suffixes); a text file is not, so that a stray notes.txt gets
+    "no source reads this" rather than a misleading answer."""
+
+    kind = "2d"
+    extensions = VIDEO_SUFFIXES
+    summary = "a video file"
+
+    @classmethod
+    def path_score(cls, path: Path) -> int:
+        if path.is_dir():
+            return 0
+        if path.suffix.lower() in cls.extensions:
+            return 2
+        return 0 if _is_text(path) else 1
+
+    @classmethod
+    def from_spec(cls, spec: SourceSpec, options: dict[str, Any]) -> VideoSource:
+        return cls(str(spec.path), spec.text)
+
+    def __init__(
+        self,
+        path: str | Path,
+        name: str | None = None,
+        opener: Callable[[str | int], cv2.VideoCapture] = cv2.VideoCapture,
+    ) -> None:
+        super().__init__(str(path), name or str(path), is_camera=False, opener=opener)
+
+
+class CameraSource(CaptureSource):
+    """A camera by number (``camera:0``), retried a few times when it stops delivering."""
+
+    kind = "2d"
+    schemes = ("camera",)
+    options = {"index": Int(0, "the camera's number (0: the first)", min=0, max=1000)}  # noqa: RUF012
+    positional = ("index",)
+    summary = "camera:N, a camera by number"
+
+    @classmethod
+    def from_spec(cls, spec: SourceSpec, options: dict[str, Any]) -> CameraSource:
+        return cls(options["index"], spec.text)
+
+    def __init__(
+        self,
+        index: int = 0,
+        name: str | None = None,
+        retries: int = 5,
+        retry_delay: float = 0.2,
+        opener: Callable[[str | int], cv2.VideoCapture] = cv2.VideoCapture,
+    ) -> None:
+        super().__init__(index, name or f"camera:{index}", is_camera=True, retries=retries, retry_delay=retry_delay,
+                         opener=opener)
+
+
 class DemoSource(FrameSource):
     """The synthetic demo scene, endless unless ``frames`` is given; frames carry ground truth."""
 
-    def __init__(self, seed: int = 0, frames: int | None = None, scene: DemoScene | None = None) -> None:
+    kind = "2d"
+    schemes = ("demo",)
+    options = {  # noqa: RUF012 - declarations, never mutated
+        "seed": Int(0, "random seed of the scene's layout and noise", min=0, max=2**31 - 1),
+        "frames": Int(0, "how many frames (0: endless)", min=0),
+    }
+    positional = ("seed",)
+    summary = "demo[:seed=N,frames=N], coloured shapes and a textured poster with ground truth"
+
+    @classmethod
+    def from_spec(cls, spec: SourceSpec, options: dict[str, Any]) -> DemoSource:
+        return cls(options["seed"], options["frames"] or None, name=spec.text)
+
+    def __init__(self, seed: int = 0, frames: int | None = None, scene: DemoScene | None = None,
+                 name: str | None = None) -> None:
         self.scene = scene if scene is not None else DemoScene(seed=seed)
-        self.name = "demo" if seed == 0 else f"demo:{seed}"
+        self.name = name or ("demo" if seed == 0 else f"demo:seed={seed}")
         self.frames = frames
 
     @property
     def length(self) -> int | None:
         return self.frames
+
+    @property
+    def rate(self) -> float:
+        return float(FPS)
 
     def __iter__(self) -> Iterator[Frame]:
         start = time.time()
@@ -184,27 +297,8 @@ class DemoSource(FrameSource):
 
 
 def open_source(spec: str) -> FrameSource:
-    """Open the source a user named: ``demo``, ``demo:SEED``, ``camera:N``, an image, a video or a folder."""
-    spec = spec.strip()
-    if not spec:
-        raise SourceError("no source given (sources: demo, camera:N, an image, a video, a folder)")
-    if spec == "demo" or spec.startswith("demo:"):
-        seed_text = spec[5:] or "0"
-        if not seed_text.isdigit():
-            raise SourceError(f"{spec}: the demo's seed must be a whole number, as in demo:3")
-        return DemoSource(seed=int(seed_text))
-    if spec.startswith("camera:"):
-        index_text = spec[7:]
-        if not index_text.isdigit():
-            raise SourceError(f"{spec}: expected camera:N with N the camera's number, as in camera:0")
-        return CaptureSource(int(index_text), spec, is_camera=True)
-    path = Path(spec).expanduser()
-    if path.is_dir():
-        return FolderSource(path)
-    if not path.exists():
-        raise SourceError(f"{spec}: no such file or folder (sources: demo, camera:N, an image, a video, a folder)")
-    if path.suffix.lower() in IMAGE_SUFFIXES:
-        return ImageFileSource(path)
-    if path.suffix.lower() in CLOUD_SUFFIXES:
-        raise SourceError(f"{spec}: a point cloud; it needs a 3d parameter file (this one is 2d)")
-    return CaptureSource(str(path), spec, is_camera=False)
+    """Open an image source by its spec (``demo``, ``camera:0``, a file or a folder): a shortcut for
+    ``objrec_core.open_source(spec, "2d")``."""
+    from objrec_core import open_source as open_any
+
+    return open_any(spec, "2d")

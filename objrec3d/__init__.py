@@ -1,8 +1,10 @@
-"""objrec3d: point clouds in, spheres and cylinders out as oriented boxes.
+"""objrec3d: the ``3d`` data kind: point clouds in, spheres and cylinders out as oriented boxes.
 
-The cloud type (``PointCloud``), its sources (``open_source``: demo, .pcd/.ply files and folders, RGB-D pairs,
-RealSense), the modules ``DistanceFilter``, ``VoxelFilter``, ``PlaneRemovalFilter`` and ``ShapeDetector``, and
-the ``DetectedObject3D`` messages. Open3D is imported only where a conversion or a PLY/RGB-D read needs it.
+The cloud type (``PointCloud``), its sources (``open_source``: ``demo``, .pcd/.ply files and folders,
+``rgbd:`` colour and depth pairs, ``realsense``), the modules ``DistanceFilter``, ``VoxelFilter``,
+``PlaneRemovalFilter`` and ``ShapeDetector``, the ``DetectedObject3D`` messages and the kind itself
+(``CloudKind``). Open3D is imported only where a conversion or a PLY/RGB-D read needs it, OpenCV only to draw
+``--annotate`` pictures; Qt and the 2D kind never.
 """
 
 from .base import CloudDetector, CloudFilter
@@ -10,22 +12,26 @@ from .cloud import PointCloud, as_cloud
 from .demo import DemoTruth, SceneOptions, TruthShape, demo_scene, random_options, render_scene
 from .distance_filter import DistanceFilter
 from .fitting import PlaneFit, ShapeFit, fit_plane
+from .kind import CloudKind
 from .messages import DetectedObject3D, DetectedObject3DArray, OrientedBox, Point, Pose, Quaternion
 from .normals import estimate_normals, grid_normals, knn_normals
 from .pcd import CloudFileError, read_pcd, write_pcd
 from .plane_removal_filter import PlaneRemovalFilter
 from .shape_detector import ShapeDetector
-from .sources import open_source, read_cloud, read_ply
+from .sources import DemoSource, FileSource, RealSenseSource, RGBDSource, open_source, read_cloud, read_ply
 from .voxel_filter import VoxelFilter
 
 __all__ = [
     "CloudDetector",
     "CloudFileError",
     "CloudFilter",
+    "CloudKind",
+    "DemoSource",
     "DemoTruth",
     "DetectedObject3D",
     "DetectedObject3DArray",
     "DistanceFilter",
+    "FileSource",
     "OrientedBox",
     "PlaneFit",
     "PlaneRemovalFilter",
@@ -33,6 +39,8 @@ __all__ = [
     "PointCloud",
     "Pose",
     "Quaternion",
+    "RGBDSource",
+    "RealSenseSource",
     "SceneOptions",
     "ShapeDetector",
     "ShapeFit",

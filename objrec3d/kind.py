@@ -1,5 +1,4 @@
-"""The ``3d`` data-kind plug-in (entry point ``objrec.kinds``): how the apps open point-cloud sources and
-draw the ``--annotate`` picture, without importing Open3D or OpenCV themselves."""
+"""The ``3d`` data kind (entry point ``objrec.kinds``): point clouds, objects as oriented boxes."""
 
 from __future__ import annotations
 
@@ -7,20 +6,53 @@ from typing import Any
 
 import numpy as np
 
-from objrec_core import Frame, FrameSource
+from objrec_core import DetectedObjectArray, Frame, FrameKindError, Kind, Outline
 
-from .sources import open_source as _open_source
-
-__all__ = ["annotate", "open_source"]
-
-
-def open_source(spec: str) -> FrameSource:
-    """A point-cloud source from its name: ``demo``, a .pcd/.ply file, a folder, ``rgbd:...``, ``realsense``."""
-    return _open_source(spec)
+from .cloud import PointCloud
+from .messages import DetectedObject3DArray
 
 
-def annotate(frame: Frame, array: Any) -> np.ndarray:
-    """The cloud seen from the sensor (BGR uint8, H x W x 3) with the detected boxes drawn."""
-    from .annotate import annotate as draw
+class CloudKind(Kind):
+    """Frames are ``PointCloud``s (organized or not); filters keep them clouds."""
 
-    return draw(frame, array)
+    name = "3d"
+    title = "point clouds"
+    object_array_type = DetectedObject3DArray
+    has_points = True
+
+    def check_frame(self, data: Any) -> None:
+        if not isinstance(data, PointCloud):
+            raise FrameKindError(f"expected a PointCloud, got {type(data).__name__}")
+
+    def preview(self, data: Any) -> np.ndarray:
+        from .annotate import render_cloud
+
+        self.check_frame(data)
+        return render_cloud(data)[0]
+
+    def annotate(self, frame: Frame, objects: DetectedObjectArray) -> np.ndarray:
+        from .annotate import annotate
+
+        return annotate(frame, objects)
+
+    def outlines(self, objects: DetectedObjectArray) -> list[Outline]:
+        found = []
+        for obj in objects.objects:
+            corners = obj.box.corners()
+            label = obj.name if not obj.shape or obj.shape == obj.name else f"{obj.name} ({obj.shape})"
+            if np.isfinite(corners).all():
+                found.append(Outline(label, box=corners))
+        return found
+
+    def points(self, data: Any) -> np.ndarray:
+        self.check_frame(data)
+        return data.points
+
+    def copy_frame(self, data: Any) -> Any:
+        return data.copy() if isinstance(data, PointCloud) else super().copy_frame(data)
+
+    def frames_equal(self, a: Any, b: Any) -> bool:
+        if not (isinstance(a, PointCloud) and isinstance(b, PointCloud)):
+            return super().frames_equal(a, b)
+        parts = ("points", "colors", "width", "height", "sensor_origin")
+        return all(super(CloudKind, self).frames_equal(getattr(a, n), getattr(b, n)) for n in parts)

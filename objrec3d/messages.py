@@ -1,4 +1,4 @@
-"""3D detected-object messages, field for field as the seed's ``object_detection_3d_msgs`` (listing 5.2).
+"""3D detected-object messages, field for field as the ROS ``object_detection_3d_msgs`` (listing 5.2).
 
 A ``DetectedObject3D`` has a ``name`` and a ``box`` (``OrientedBox``: ``pose`` with ``position`` and
 ``orientation``, then ``width``, ``height``, ``depth``). ``shape``, ``radius`` and ``inliers`` are extra

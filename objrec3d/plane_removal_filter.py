@@ -28,23 +28,23 @@ class PlaneRemovalFilter(CloudFilter):
                                min=0.001, max=0.2, step=0.001)
     max_iterations = Int(200, "RANSAC draws at most; stops earlier once the plane is certain",
                          min=1, max=10000)
-    min_plane_points = Int(2000, "a smaller plane is not removed", min=3, max=10_000_000)
+    min_plane_points = Int(2000, "a smaller plane is not removed", min=3, max=10_000_000, soft_max=50_000)
     max_planes = Int(1, "how many planes to remove, largest first", min=1, max=10)
     random_seed = Int(0, "seed of the random draws: the same cloud gives the same result", min=0, max=2**31 - 1)
 
     def filter(self, frame: Any) -> PointCloud:
         cloud = as_cloud(frame)
         p = self.params
-        rng = np.random.default_rng(p["random_seed"])
+        rng = np.random.default_rng(p.random_seed)
         keep = cloud.valid_mask()
         removed = False
-        for _ in range(p["max_planes"]):
+        for _ in range(p.max_planes):
             candidates = np.flatnonzero(keep)
-            if candidates.size < max(p["min_plane_points"], 3):
+            if candidates.size < p.min_plane_points:  # at least 3, as declared
                 break
-            plane = fit_plane(cloud.points[candidates], p["distance_threshold"], max_iterations=p["max_iterations"],
+            plane = fit_plane(cloud.points[candidates], p.distance_threshold, max_iterations=p.max_iterations,
                               rng=rng, origin=cloud.sensor_origin)
-            if plane is None or int(plane.inliers.sum()) < p["min_plane_points"]:
+            if plane is None or int(plane.inliers.sum()) < p.min_plane_points:
                 break
             keep[candidates[plane.inliers]] = False
             removed = True

@@ -1,8 +1,8 @@
 """ShapeDetector: spheres or cylinders by RANSAC on points with normals, reported as oriented boxes.
 
-The seed's detector (PCL's SACSegmentationFromNormals) always returned its best model, however bad, and
-needed a slow k-nearest-neighbour normal estimation first. Here normals come from the image grid when the
-cloud is organized, hypotheses from two points with normals are rejected before scoring when their radius
+PCL's SACSegmentationFromNormals always returns its best model, however bad, and needs a slow
+k-nearest-neighbour normal estimation first. Here normals come from the image grid when the cloud is
+organized, hypotheses from two points with normals are rejected before scoring when their radius
 is out of range, and a fit becomes an object only when it is strong: enough inliers in one connected
 piece, covering enough of the shape's visible side (``min_arc``). A scene without the shape gives nothing.
 """
@@ -15,7 +15,7 @@ from typing import Any
 
 import numpy as np
 
-from objrec_core import Choice, Float, Int
+from objrec_core import Choice, Float, Int, Ordered
 
 from .base import CloudDetector
 from .cloud import PointCloud, as_cloud
@@ -31,23 +31,26 @@ class ShapeDetector(CloudDetector):
     """Finds up to ``max_objects`` spheres or cylinders: fit, remove the inliers, fit again."""
 
     shape = Choice("cylinder", ["sphere", "cylinder"], "the shape to find")
-    min_radius = Float(0.01, "smallest radius reported, metres", min=0.0, max=5.0, step=0.001)
+    # Things a robot picks up are a few centimetres across: the sliders stop at half a metre, typed values
+    # reach 5 m. Both share the range so that the two sliders line up.
+    min_radius = Float(0.01, "smallest radius reported, metres", min=0.0, max=5.0, soft_max=0.5, step=0.001)
     max_radius = Float(0.1, "largest radius reported, metres; also bounds the pair sampling", min=0.001, max=5.0,
-                       step=0.001)
+                       soft_max=0.5, step=0.001)
+    radius_order = Ordered("min_radius", "max_radius", why="no radius could be reported")
     distance_threshold = Float(0.01, "a point is an inlier when w*angle + (1-w)*distance is below this (PCL's "
                                "threshold)", min=0.0005, max=0.5, step=0.0005)
     normal_distance_weight = Float(0.05, "w: how much the normal's angle (radians) counts against the "
                                    "distance (metres)", min=0.0, max=1.0, step=0.01)
-    max_iterations = Int(1000, "hypotheses tried at most per object", min=1, max=100_000, step=1)
+    max_iterations = Int(1000, "hypotheses tried at most per object", min=1, max=100_000, soft_max=10_000, step=1)
     probability = Float(0.99, "adaptive stopping: stop once a better model is this unlikely", min=0.5, max=0.99999,
                         step=0.001)
     min_inliers = Int(300, "a fit with fewer inliers (in its largest connected piece) is no object", min=3,
-                      max=10_000_000)
+                      max=10_000_000, soft_max=5000)
     min_arc = Float(60.0, "degrees the inliers must cover: of the circumference (cylinder), of the cap across its "
                     "narrower side (sphere); a sliver of a plane, an edge or a ring is no shape", min=0.0, max=360.0,
                     step=5.0)
     min_length = Float(0.8, "cylinders: the inliers must reach this many radii along the axis; a ring around a "
-                       "sphere is no cylinder", min=0.0, max=100.0, step=0.1)
+                       "sphere is no cylinder", min=0.0, max=100.0, soft_max=10.0, step=0.1)
     min_agreement = Float(0.5, "share of the points on the fitted surface (within the threshold, facing out) whose "
                           "normals must agree with it: the rounded edge of a flat thing does not", min=0.0, max=1.0,
                           step=0.05)
@@ -69,18 +72,18 @@ class ShapeDetector(CloudDetector):
         points that have normals, see ``points_with_normals``)."""
         p = self.params
         points, normals, _ = self.points_with_normals(cloud, p)
-        if points.shape[0] < p["min_inliers"]:
+        if points.shape[0] < p.min_inliers:
             return []
         settings = ShapeSettings(
-            shape=p["shape"], min_radius=p["min_radius"], max_radius=max(p["max_radius"], p["min_radius"]),
-            threshold=p["distance_threshold"], normal_weight=p["normal_distance_weight"],
-            max_iterations=p["max_iterations"], probability=p["probability"],
+            shape=p.shape, min_radius=p.min_radius, max_radius=p.max_radius,
+            threshold=p.distance_threshold, normal_weight=p.normal_distance_weight,
+            max_iterations=p.max_iterations, probability=p.probability,
         )
-        rng = np.random.default_rng(p["random_seed"])
+        rng = np.random.default_rng(p.random_seed)
         alive = np.arange(points.shape[0])
         found: list[tuple[ShapeFit, tuple[np.ndarray, float]]] = []
-        attempts = p["max_objects"] + 6  # a rejected fit's points are set aside and the search goes on
-        while len(found) < p["max_objects"] and attempts > 0 and alive.size >= p["min_inliers"]:
+        attempts = p.max_objects + 6  # a rejected fit's points are set aside and the search goes on
+        while len(found) < p.max_objects and attempts > 0 and alive.size >= p.min_inliers:
             attempts -= 1
             fit = ransac_shape(points[alive], normals[alive], settings, rng)
             if fit is None:
@@ -104,34 +107,34 @@ class ShapeDetector(CloudDetector):
             return np.empty((0, 3)), np.empty((0, 3)), index
         normals = None
         if cloud.is_organized:
-            normals = grid_normals(cloud, index, window=p["normal_window"])
+            normals = grid_normals(cloud, index, window=p.normal_window)
             if np.isfinite(normals[:, 0]).mean() < 0.5:  # a sparse grid (voxel-thinned): use neighbours
                 normals = None
         if normals is None:
-            normals = knn_normals(cloud.points[index], p["normal_neighbours"], cloud.sensor_origin)
+            normals = knn_normals(cloud.points[index], p.normal_neighbours, cloud.sensor_origin)
         ok = np.isfinite(normals[:, 0])
         return cloud.points[index[ok]].astype(np.float64), normals[ok].astype(np.float64), index[ok]
 
     def _judge(self, fit: ShapeFit, points: np.ndarray, normals: np.ndarray, settings: ShapeSettings, p: Any
                ) -> str | None:
         """None for a strong fit (keeping only its largest connected piece of inliers), else why not."""
-        if fit.inliers.size < p["min_inliers"]:
-            return f"{fit.inliers.size} inliers < {p['min_inliers']}"
+        if fit.inliers.size < p.min_inliers:
+            return f"{fit.inliers.size} inliers < {p.min_inliers}"
         cell = max(0.25 * fit.radius, 1.5 * settings.threshold, 0.004)
         fit.inliers = fit.inliers[largest_cluster(points[fit.inliers], cell)]
-        if fit.inliers.size < p["min_inliers"]:
-            return f"{fit.inliers.size} connected inliers < {p['min_inliers']}"
+        if fit.inliers.size < p.min_inliers:
+            return f"{fit.inliers.size} connected inliers < {p.min_inliers}"
         arc = coverage(fit, points[fit.inliers])
-        if arc < p["min_arc"]:
-            return f"inliers cover {arc:.0f} degrees < {p['min_arc']:g}"
+        if arc < p.min_arc:
+            return f"inliers cover {arc:.0f} degrees < {p.min_arc:g}"
         if fit.axis is not None:
             along = dot3(points[fit.inliers] - fit.center, fit.axis)
             length = float(along.max() - along.min())
-            if length < p["min_length"] * fit.radius:
-                return f"inliers reach {length:.3f} m along the axis < {p['min_length']:g} radii"
+            if length < p.min_length * fit.radius:
+                return f"inliers reach {length:.3f} m along the axis < {p.min_length:g} radii"
         agreement = normal_agreement(fit, points, normals, settings.threshold)
-        if agreement < p["min_agreement"]:
-            return f"normals agree on {agreement:.0%} of the surface < {p['min_agreement']:.0%}"
+        if agreement < p.min_agreement:
+            return f"normals agree on {agreement:.0%} of the surface < {p.min_agreement:.0%}"
         return None
 
     @staticmethod
@@ -139,7 +142,7 @@ class ShapeDetector(CloudDetector):
         if fit.axis is None:
             return fit.center, 2.0 * fit.radius
         along = dot3(points[fit.inliers] - fit.center, fit.axis)
-        # The seed's box: the inlier centroid projected onto the axis, the inliers' extent along it.
+        # The box: centred on the inlier centroid projected onto the axis, as long as the inliers reach along it.
         return fit.center + fit.axis * along.mean(), float(along.max() - along.min())
 
     def _to_object(self, fit: ShapeFit, extent: tuple[np.ndarray, float], sensor: np.ndarray) -> DetectedObject3D:

@@ -1,13 +1,13 @@
-"""Point-cloud sources, selected by one string as in 2D.
+"""Point-cloud sources (plug-ins of the ``objrec.sources`` group), named with the same grammar as every source.
 
-- ``demo`` / ``demo:SEED`` / ``demo:seed=3,frames=50``: the synthetic scene (``demo.py``), with ground truth.
+- ``demo`` / ``demo:3`` / ``demo:seed=3,frames=50``: the synthetic scene (``demo.py``), with ground truth.
 - ``PATH.pcd`` / ``PATH.ply``: one file; ``FOLDER``: every .pcd/.ply in it, in name order.
-- ``rgbd:COLOR,DEPTH[,INTRINSICS.json]``: a colour and a depth image (16-bit millimetres, or set
-  ``depth_scale`` in the JSON) back-projected into an organized cloud. The JSON is Open3D's
-  ``PinholeCameraIntrinsic`` format (``width``, ``height``, column-major ``intrinsic_matrix``); without one the
-  PrimeSense defaults (fx = fy = 525, centre at the image centre) are used.
-- ``realsense`` / ``realsense:N``: an Intel RealSense camera through Open3D's sensor API, where the Open3D
-  build has it.
+- ``rgbd:COLOR,DEPTH[,INTRINSICS.json]`` (or ``rgbd:color=…,depth=…,intrinsics=…``): a colour and a depth
+  image (16-bit millimetres, or set ``depth_scale`` in the JSON) back-projected into an organized cloud. The
+  JSON is Open3D's ``PinholeCameraIntrinsic`` format (``width``, ``height``, column-major
+  ``intrinsic_matrix``); without one the PrimeSense defaults (fx = fy = 525, centre at the image centre) are
+  used.
+- ``realsense`` / ``realsense:N``: an Intel RealSense camera through Open3D's sensor API.
 """
 
 from __future__ import annotations
@@ -21,7 +21,7 @@ from typing import Any
 
 import numpy as np
 
-from objrec_core import Frame, FrameSource, SourceError
+from objrec_core import Frame, FrameSource, Int, SourceError, SourceSpec, Str
 
 from .cloud import PointCloud
 from .pcd import CloudFileError, read_pcd
@@ -105,6 +105,15 @@ def _quiet(o3d: Any) -> Any:
 class FileSource(FrameSource):
     """One cloud file, or every cloud file of a folder in name order."""
 
+    kind = "3d"
+    extensions = CLOUD_SUFFIXES
+    folders = True
+    summary = "a .pcd or .ply file, or a folder of them"
+
+    @classmethod
+    def from_spec(cls, spec: SourceSpec, options: dict[str, Any]) -> FileSource:
+        return cls(spec.text)
+
     def __init__(self, spec: str) -> None:
         self.name = spec
         path = Path(spec)
@@ -130,27 +139,64 @@ class FileSource(FrameSource):
 
 
 class DemoSource(FrameSource):
-    """The synthetic scene, ``frames`` frames long (the sphere rolls; new noise each frame)."""
+    """The synthetic scene, endless unless ``frames`` is given (the sphere rolls; new noise each frame)."""
 
-    def __init__(self, spec: str = "demo", seed: int = 0, frames: int = 30) -> None:
+    kind = "3d"
+    schemes = ("demo",)
+    options = {  # noqa: RUF012 - declarations, never mutated
+        "seed": Int(0, "random seed of the scene's layout and noise", min=0, max=2**31 - 1),
+        "frames": Int(0, "how many frames (0: endless)", min=0),
+    }
+    positional = ("seed",)
+    summary = "demo[:seed=N,frames=N], a table with a cylinder, a sphere and clutter, with ground truth"
+    FPS = 30.0
+
+    @classmethod
+    def from_spec(cls, spec: SourceSpec, options: dict[str, Any]) -> DemoSource:
+        return cls(spec.text, options["seed"], options["frames"] or None)
+
+    def __init__(self, spec: str = "demo", seed: int = 0, frames: int | None = None) -> None:
         self.name = spec
         self.seed = seed
         self.frames = frames
 
     @property
-    def length(self) -> int:
+    def length(self) -> int | None:
         return self.frames
+
+    @property
+    def rate(self) -> float:
+        return self.FPS
 
     def __iter__(self) -> Iterator[Frame]:
         from .demo import demo_scene
 
-        for index in range(self.frames):
+        start = time.time()
+        index = 0
+        while self.frames is None or index < self.frames:
             cloud, truth = demo_scene(self.seed, index)
-            yield Frame(cloud, stamp=time.time(), index=index, source=self.name, truth=truth)
+            yield Frame(cloud, stamp=start + index / self.FPS, index=index, source=self.name, truth=truth)
+            index += 1
 
 
 class RGBDSource(FrameSource):
     """One colour + depth pair back-projected with pinhole intrinsics into an organized cloud."""
+
+    kind = "3d"
+    schemes = ("rgbd",)
+    options = {  # noqa: RUF012 - declarations, never mutated
+        "color": Str("", "the colour image"),
+        "depth": Str("", "the depth image (16-bit millimetres, or float metres)"),
+        "intrinsics": Str("", "Open3D's PinholeCameraIntrinsic JSON (default: fx = fy = 525, centred)"),
+    }
+    positional = ("color", "depth", "intrinsics")
+    summary = "rgbd:COLOR,DEPTH[,INTRINSICS.json], a colour and depth image pair"
+
+    @classmethod
+    def from_spec(cls, spec: SourceSpec, options: dict[str, Any]) -> RGBDSource:
+        if not options["color"] or not options["depth"]:
+            raise SourceError(f"{spec.text}: expected rgbd:COLOR,DEPTH[,INTRINSICS.json]")
+        return cls(spec.text, options["color"], options["depth"], options["intrinsics"] or None)
 
     def __init__(self, spec: str, color: str, depth: str, intrinsics: str | None = None) -> None:
         self.name = spec
@@ -197,7 +243,17 @@ class RGBDSource(FrameSource):
 
 
 class RealSenseSource(FrameSource):
-    """An Intel RealSense camera through Open3D's ``t.io.RealSenseSensor`` (Open3D builds with librealsense)."""
+    """An Intel RealSense camera through Open3D's ``t.io.RealSenseSensor``."""
+
+    kind = "3d"
+    schemes = ("realsense",)
+    options = {"device": Int(0, "the camera's number among those connected", min=0, max=64)}  # noqa: RUF012
+    positional = ("device",)
+    summary = "realsense[:N], an Intel RealSense camera"
+
+    @classmethod
+    def from_spec(cls, spec: SourceSpec, options: dict[str, Any]) -> RealSenseSource:
+        return cls(spec.text, options["device"])
 
     def __init__(self, spec: str, device: int = 0) -> None:
         self.name = spec
@@ -239,38 +295,8 @@ class RealSenseSource(FrameSource):
         self.sensor.stop_capture()
 
 
-def _options(spec: str, text: str) -> dict[str, int]:
-    options: dict[str, int] = {}
-    for part in filter(None, text.split(",")):
-        key, _, value = part.rpartition("=")
-        try:
-            options[key or "seed"] = int(value)
-        except ValueError:
-            raise SourceError(f"{spec}: {part!r} is not an integer option (demo:seed=N,frames=N)") from None
-    unknown = set(options) - {"seed", "frames"}
-    if unknown:
-        raise SourceError(f"{spec}: unknown option {sorted(unknown)[0]!r} (seed, frames)")
-    return options
-
-
 def open_source(spec: str) -> FrameSource:
-    """Open a point-cloud source by its name (see the module docstring for the forms)."""
-    spec = spec.strip()
-    if spec == "demo" or spec.startswith("demo:"):
-        options = _options(spec, spec[5:])
-        frames = options.get("frames", 30)
-        if frames < 1:
-            raise SourceError(f"{spec}: frames must be at least 1")
-        return DemoSource(spec, options.get("seed", 0), frames)
-    if spec.startswith("rgbd:"):
-        parts = spec[5:].split(",")
-        if len(parts) not in (2, 3):
-            raise SourceError(f"{spec}: expected rgbd:COLOR,DEPTH[,INTRINSICS.json]")
-        return RGBDSource(spec, *parts)
-    if spec == "realsense" or spec.startswith("realsense:"):
-        try:
-            device = int(spec[10:] or 0)
-        except ValueError:
-            raise SourceError(f"{spec}: expected realsense or realsense:N") from None
-        return RealSenseSource(spec, device)
-    return FileSource(spec)
+    """Open a point-cloud source by its spec: a shortcut for ``objrec_core.open_source(spec, "3d")``."""
+    from objrec_core import open_source as open_any
+
+    return open_any(spec, "3d")

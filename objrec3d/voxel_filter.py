@@ -41,10 +41,10 @@ class VoxelFilter(CloudFilter):
         if valid.size == 0:
             return cloud
         points = cloud.points[valid].astype(np.float64)
-        group, count = voxel_groups(points, p["leaf_size"])
+        group, count = voxel_groups(points, p.leaf_size)
         sizes = np.bincount(group, minlength=count).astype(np.float64)
         centroids = np.stack([np.bincount(group, points[:, i], count) for i in range(3)], axis=1) / sizes[:, None]
-        if cloud.is_organized and p["keep_organized"]:
+        if cloud.is_organized and p.keep_organized:
             gap = ((points - centroids[group]) ** 2).sum(axis=1)
             order = np.lexsort((gap, group))
             first = np.ones(order.size, dtype=bool)

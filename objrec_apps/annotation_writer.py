@@ -28,8 +28,10 @@ class AnnotationWriter:
                 f"{self.path}: names one picture; give a folder (one PNG per frame) or a video (.avi, .mp4)"
             )
         if self.is_video:
-            if not self.path.parent.is_dir():
-                raise AnnotationError(f"{self.path}: folder {self.path.parent} does not exist")
+            try:
+                self.path.parent.mkdir(parents=True, exist_ok=True)
+            except OSError as exc:
+                raise AnnotationError(f"{self.path}: cannot create the folder {self.path.parent}: {exc}") from None
         else:
             try:
                 self.path.mkdir(parents=True, exist_ok=True)

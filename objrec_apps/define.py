@@ -1,6 +1,6 @@
 """objrec-define: the definition GUI. Tune a pipeline live and save the parameter file objrec-detect runs.
 
-    objrec-define hsv|feature|shape [--source SPEC]   the seed's three systems, with starting parameters
+    objrec-define hsv|feature|shape [--source SPEC]   a shipped system (objrec_apps/systems/*_demo.yaml), untitled
     objrec-define PARAMS_FILE [--source SPEC]         any parameter file, its pipeline built from the file
     objrec-define                                     an empty window (build a pipeline from the Pipeline menu)
 
@@ -13,9 +13,11 @@ import argparse
 import os
 import signal
 import sys
+from importlib import resources
 from pathlib import Path
 from typing import Any
 
+import objrec_core
 from objrec_core import (
     FrameSource,
     ParameterFileError,
@@ -23,13 +25,22 @@ from objrec_core import (
     SourceError,
     UnknownModuleError,
     build_system,
-    kind_plugin,
+    source_kinds,
 )
 
 from .cli import USER_ERROR, UserError, configure_logging, report
 
 PROG = "objrec-define"
-SYSTEMS = ("hsv", "feature", "shape")
+#: The shipped starting systems (package data in objrec_apps/systems/), by the name given on the command line.
+SYSTEMS = {"hsv": "hsv_demo.yaml", "feature": "feature_demo.yaml", "shape": "shape_demo.yaml"}
+
+
+def starting_system(name: str) -> RecognitionSystem:
+    """A new system built from the shipped file of ``name`` (``hsv``, ``feature``, ``shape``), read as
+    package data so it works from a wheel as from the repository. KeyError for an unknown name."""
+    resource = resources.files("objrec_apps") / "systems" / SYSTEMS[name]
+    with resources.as_file(resource) as path:
+        return build_system(path)
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -49,30 +60,33 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
-def load_system(choice: str | None) -> tuple[RecognitionSystem, Path | None]:
-    """The system to open and, for a parameter file, its path."""
+def load_system(choice: str | None) -> tuple[RecognitionSystem, Path | None, str | None]:
+    """The system to open, the parameter file's path (None: untitled) and, for a shipped system, the name of
+    the file it was started from (Save then asks where rather than overwriting the shipped file)."""
     if choice is None:
-        return RecognitionSystem(), None
+        return RecognitionSystem(), None, None
     if choice in SYSTEMS and not Path(choice).is_file():
-        from objrec_apps.gui.presets import build_preset
-
         try:
-            return build_preset(choice), None
-        except UnknownModuleError as exc:
+            return starting_system(choice), None, SYSTEMS[choice]
+        except (ParameterFileError, UnknownModuleError) as exc:
             raise UserError(f"the {choice} system cannot be built: {exc}") from None
     path = Path(choice)
     if not path.exists() and path.suffix.lower() not in (".yaml", ".yml"):
         raise UserError(f"{choice}: neither one of {', '.join(SYSTEMS)} nor an existing parameter file")
     try:
-        return build_system(path), path
+        return build_system(path), path, None
     except ParameterFileError as exc:
         raise UserError(str(exc)) from None
 
 
-def open_source(spec: str, kind: str) -> FrameSource:
-    """Open the source now, so a bad one is a clear error before any window appears."""
+def open_source(spec: str, kind: str | None) -> FrameSource | str:
+    """Open the source now, so a bad one is a clear error before any window appears. With no pipeline kind
+    yet, a spec of several kinds (``demo``) is handed to the window as it is: it opens once the pipeline has
+    a kind."""
     try:
-        return kind_plugin(kind).open_source(spec)
+        if kind is None and len(source_kinds(spec)) > 1:
+            return spec
+        return objrec_core.open_source(spec, kind)
     except (SourceError, UnknownModuleError) as exc:
         raise UserError(str(exc)) from None
 
@@ -130,8 +144,8 @@ def import_qt() -> Any:
 def run(args: argparse.Namespace) -> int:
     check_display()
     application_class = import_qt()
-    system, path = load_system(args.system)
-    source = open_source(args.source, system.kind or "2d")
+    system, path, origin = load_system(args.system)
+    source = open_source(args.source, system.kind)
     application = application_class.instance() or application_class([PROG])
     application.setApplicationName(PROG)
     application.setOrganizationName("objrec")
@@ -142,6 +156,9 @@ def run(args: argparse.Namespace) -> int:
         window.files.remember_folder(path)
         window.files.set_path(path)
         window.show_message(f"Opened {path}")
+    elif origin is not None:
+        window.files.set_origin(origin)
+        window.show_message(f"Started from the shipped {origin}: Save asks where to save your version")
     window.show()
     # Ctrl-C in the terminal closes the window as File>Quit would (settings saved, thread stopped). Qt's loop
     # runs no Python between events, so a timer lets the interpreter look at its signals now and then.

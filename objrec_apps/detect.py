@@ -9,29 +9,31 @@ from __future__ import annotations
 
 import argparse
 import contextlib
-import itertools
 import logging
 import os
 import signal
 import sys
 import threading
-import time
-from collections.abc import Iterator
+from collections.abc import Sequence
 from pathlib import Path
 from types import FrameType
 from typing import IO, Any
 
 from objrec_core import (
+    DetectedObjectArray,
     DetectionDirector,
     Frame,
     FrameSource,
     JSONLinesSink,
+    Kind,
     ParameterFileError,
     PipelineError,
     SourceError,
+    Stage,
     UnknownModuleError,
     build_system,
-    kind_plugin,
+    get_kind,
+    open_source,
 )
 
 from .annotation_writer import AnnotationError, AnnotationWriter
@@ -45,14 +47,15 @@ def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog=PROG,
         description="Detect objects with a parameter file made by objrec-define; one JSON line per frame.",
+        epilog="Sources: a path (image, video, folder, cloud file) or scheme:key=value,... such as demo, "
+        "demo:seed=3,frames=100, camera:0, rgbd:COLOR,DEPTH. The parameter file's kind decides which are read.",
     )
     parser.add_argument("params", metavar="PARAMS_FILE", help="parameter file (YAML) of a recognition system")
-    parser.add_argument(
-        "--source", "-s", required=True, help="demo, demo:SEED, camera:N, an image, a video, a folder, a cloud file"
-    )
+    parser.add_argument("--source", "-s", required=True, help="demo, demo:seed=N,frames=N, camera:N, or a path")
     parser.add_argument("--output", "-o", metavar="FILE", help="write the JSON lines here instead of stdout")
     parser.add_argument("--max-frames", "-n", type=int, metavar="N", help="stop after N frames")
-    parser.add_argument("--frame-id", default="camera", help="frame_id written in every header (default: camera)")
+    parser.add_argument("--frame-id", default="camera",
+                        help="frame_id written in headers when the source gives none (default: camera)")
     parser.add_argument(
         "--annotate", metavar="PATH", help="also write pictures: a video (.avi/.mp4) or a folder of PNGs"
     )
@@ -71,7 +74,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 class _Stopper:
-    """Turns SIGTERM into a stop request, so the loop ends between frames and flushes."""
+    """Turns SIGTERM and Ctrl-C into a stop request, so the loop ends between frames and flushes."""
 
     def __init__(self) -> None:
         self.event = threading.Event()
@@ -84,7 +87,46 @@ class _Stopper:
         self.event.set()
 
 
-def _open(args: argparse.Namespace) -> tuple[DetectionDirector, FrameSource, Any]:
+class BarProgress:
+    """The run loop's progress as a tqdm bar on stderr (only where the total is known)."""
+
+    def __init__(self, enabled: bool | None) -> None:
+        self.enabled = enabled
+        self._bar: Any = None
+
+    def start(self, total: int | None) -> None:
+        if total is None or self.enabled is False:
+            return
+        from tqdm import tqdm
+
+        self._bar = tqdm(total=total, unit="frame", file=sys.stderr, disable=None if self.enabled is None else False)
+
+    def advance(self, frames: int = 1) -> None:
+        if self._bar is not None:
+            self._bar.update(frames)
+
+    def close(self) -> None:
+        if self._bar is not None:
+            self._bar.close()
+            self._bar = None
+
+
+class PictureSink:
+    """Writes each frame's picture: the kind's annotation, or with ``debug`` the first detector's own view."""
+
+    def __init__(self, writer: AnnotationWriter, kind: Kind, debug: bool) -> None:
+        self.writer, self.kind, self.debug = writer, kind, debug
+
+    def __call__(self, frame: Frame, objects: DetectedObjectArray, stages: Sequence[Stage] | None) -> None:
+        picture = None
+        if self.debug and stages:
+            picture = next((s.debug for s in stages if s.debug is not None), None)
+            if isinstance(picture, dict):
+                picture = next(iter(picture.values()), None)
+        self.writer.write(picture if picture is not None else self.kind.annotate(frame, objects))
+
+
+def _open(args: argparse.Namespace) -> tuple[DetectionDirector, FrameSource, Kind]:
     if args.max_frames is not None and args.max_frames < 1:
         raise UserError(f"--max-frames must be at least 1, got {args.max_frames}")
     try:
@@ -94,83 +136,53 @@ def _open(args: argparse.Namespace) -> tuple[DetectionDirector, FrameSource, Any
     if not system.detectors:
         raise UserError(f"{args.params}: pipeline: has no detector, so nothing would be detected")
     try:
-        plugin = kind_plugin(system.kind or "2d")
-        source = plugin.open_source(args.source)
+        kind = get_kind(system.kind) if system.kind else None
+        if kind is None:
+            raise UserError(f"{args.params}: kind: no module declares its data kind")
+        source = open_source(args.source, kind.name)
     except (SourceError, UnknownModuleError) as exc:
         raise UserError(str(exc)) from None
-    return DetectionDirector(system, frame_id=args.frame_id), source, plugin
+    return DetectionDirector(system, frame_id=args.frame_id), source, kind
 
 
-def _frames(source: FrameSource, limit: int | None, progress: bool | None) -> Iterator[Frame]:
-    total = source.length
-    if limit is not None:
-        total = limit if total is None else min(total, limit)
-    bar = None
-    if total is not None and progress is not False:
-        from tqdm import tqdm
-
-        bar = tqdm(total=total, unit="frame", file=sys.stderr, disable=None if progress is None else False)
+def _output_stream(path: str) -> IO[str]:
+    """The JSON Lines file, its missing parent folders made."""
+    target = Path(path)
     try:
-        # islice: never pull a frame past the limit (a camera could fail on it after the work was done)
-        for frame in itertools.islice(source, limit):
-            yield frame
-            if bar is not None:
-                bar.update(1)
-    finally:
-        if bar is not None:
-            bar.close()
-
-
-def _annotation(director: DetectionDirector, plugin: Any, frame: Frame, view: str) -> tuple[Any, Any]:
-    if view == "debug":
-        array, stages = director.process_with_stages(frame)
-        debug = next((s.debug for s in stages if s.debug is not None), None)
-        return array, debug if debug is not None else plugin.annotate(frame, array)
-    array = director.process(frame)
-    return array, plugin.annotate(frame, array)
+        target.parent.mkdir(parents=True, exist_ok=True)
+        return target.open("w", encoding="utf-8")
+    except OSError as exc:
+        raise UserError(f"{path}: cannot be written: {exc.strerror or exc}") from None
 
 
 def run(args: argparse.Namespace, stdout: IO[str]) -> int:
-    director, source, plugin = _open(args)
+    director, source, kind = _open(args)
     stopper = _Stopper()
     previous = {}
     if threading.current_thread() is threading.main_thread():
         previous = {sig: signal.signal(sig, stopper) for sig in (signal.SIGTERM, signal.SIGINT)}
     writer = None
     output = None
-    frames = objects = 0
-    start = time.perf_counter()
     try:
-        if args.output:
-            try:
-                output = Path(args.output).open("w", encoding="utf-8")  # noqa: SIM115 - closed below
-            except OSError as exc:
-                raise UserError(f"{args.output}: cannot be written: {exc}") from None
-        sink = JSONLinesSink(output or stdout, skip_empty=args.skip_empty)
-        director.add_sink(sink)
+        output = _output_stream(args.output) if args.output else None
+        director.add_sink(JSONLinesSink(output or stdout, skip_empty=args.skip_empty))
         if args.annotate:
             try:
                 writer = AnnotationWriter(args.annotate)
             except AnnotationError as exc:
                 raise UserError(str(exc)) from None
-        for frame in _frames(source, args.max_frames, args.progress):
-            if writer is None:
-                array = director.process(frame)
-            else:
-                array, picture = _annotation(director, plugin, frame, args.annotate_view)
-                writer.write(picture)
-            frames += 1
-            objects += len(array.objects)
-            if stopper.event.is_set():
-                log.warning("stopped by %s after %d frames", stopper.reason, frames)
-                break
+            director.keep_stages = args.annotate_view == "debug"
+            director.add_annotation_sink(PictureSink(writer, kind, debug=director.keep_stages))
+        director.run_all(source, args.max_frames, stop=stopper.event, progress=BarProgress(args.progress))
+        if director.stats.stopped_by == "stop":
+            log.warning("stopped by %s after %d frames", stopper.reason, director.stats.frames)
     except KeyboardInterrupt:
-        log.warning("interrupted after %d frames", frames)
+        log.warning("interrupted after %d frames", director.stats.frames)
     except BrokenPipeError:
         raise
     except (SourceError, AnnotationError) as exc:
         report(PROG, exc)
-        return 2 if frames == 0 else 1  # nothing read at all: the source itself is bad
+        return 2 if director.stats.frames == 0 else 1  # nothing read at all: the source itself is bad
     except OSError as exc:  # the output went away: a full disk, a closed device
         report(PROG, f"writing {args.output or 'the output'}: {exc.strerror or exc}")
         return 1
@@ -183,9 +195,9 @@ def run(args: argparse.Namespace, stdout: IO[str]) -> int:
         source.close()
         for sig, handler in previous.items():
             signal.signal(sig, handler)
-    seconds = time.perf_counter() - start
-    fps = frames / seconds if seconds > 0 else 0.0
-    print(f"{PROG}: {frames} frames, {objects} objects, {seconds:.2f} s, {fps:.1f} frames/s", file=sys.stderr)
+    stats = director.stats
+    print(f"{PROG}: {stats.frames} frames, {stats.objects} objects, {stats.seconds:.2f} s, {stats.rate:.1f} frames/s",
+          file=sys.stderr)
     if writer is not None:
         print(f"{PROG}: {writer.count} annotated frames written to {args.annotate}", file=sys.stderr)
     return 0

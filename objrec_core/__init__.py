@@ -1,32 +1,55 @@
 """objrec_core: the framework every recognition system is built on.
 
-Declared parameters (:class:`Parametrizable`), filters and detectors, the pipeline
-(:class:`RecognitionSystem`), parameter files (:class:`ParameterStorage`), the module registry and the two
-directors. It imports no OpenCV, Open3D or Qt.
+Declared parameters and rules (:class:`Parametrizable`), filters and detectors, the pipeline
+(:class:`RecognitionSystem`), parameter files (:class:`ParameterStorage`), the registry of module types,
+data kinds (:class:`Kind`) and source types (:class:`FrameSource`), and the two directors. It imports no
+OpenCV, Open3D or Qt, and names no data kind: kinds, modules and sources are plug-ins.
 """
 
-from .directors import DefinitionDirector, DetectionDirector, SelectionResult, StageResults, StageView
+from .directors import (
+    AnnotationSink,
+    DefinitionDirector,
+    DetectionDirector,
+    Progress,
+    RunStats,
+    SelectionResult,
+    StageResults,
+    StageView,
+)
+from .kinds import FrameKindError, Kind, Outline
 from .messages import DetectedObjectArray, Header
 from .modules import Detector, Filter, Rect, SelectionRefused
-from .observer import Observer, Subject
+from .observer import Change, Observer, Subject
 from .parameters import Bool, Choice, Float, Int, Parameter, ParameterError, Str
 from .parametrizable import Parametrizable
 from .registry import (
     UnknownModuleError,
-    kind_plugin,
+    get_kind,
+    kind_names,
     module_type,
     module_type_names,
     module_types,
+    open_source,
+    register_kind,
     register_module,
+    register_source,
+    source_kinds,
+    source_types,
+    source_usage,
 )
+from .rules import Check, Ordered, Rule
+from .schema import FORMAT_VERSION, ParameterFileError
 from .sinks import JSONLinesSink
-from .sources import Frame, FrameSource, SourceError
-from .storage import FORMAT_VERSION, ParameterFileError, ParameterStorage, build_system
+from .sources import Frame, FrameSource, SourceError, SourceSpec
+from .storage import Opened, ParameterStorage, build_system, peek_kind
 from .system import PipelineError, PipelineResult, RecognitionSystem, Stage
 
 __all__ = [
     "FORMAT_VERSION",
+    "AnnotationSink",
     "Bool",
+    "Change",
+    "Check",
     "Choice",
     "DefinitionDirector",
     "DetectedObjectArray",
@@ -35,11 +58,16 @@ __all__ = [
     "Filter",
     "Float",
     "Frame",
+    "FrameKindError",
     "FrameSource",
     "Header",
     "Int",
     "JSONLinesSink",
+    "Kind",
     "Observer",
+    "Opened",
+    "Ordered",
+    "Outline",
     "Parameter",
     "ParameterError",
     "ParameterFileError",
@@ -47,11 +75,15 @@ __all__ = [
     "Parametrizable",
     "PipelineError",
     "PipelineResult",
+    "Progress",
     "RecognitionSystem",
     "Rect",
+    "Rule",
+    "RunStats",
     "SelectionRefused",
     "SelectionResult",
     "SourceError",
+    "SourceSpec",
     "Stage",
     "StageResults",
     "StageView",
@@ -59,9 +91,17 @@ __all__ = [
     "Subject",
     "UnknownModuleError",
     "build_system",
-    "kind_plugin",
+    "get_kind",
+    "kind_names",
     "module_type",
     "module_type_names",
     "module_types",
+    "open_source",
+    "peek_kind",
+    "register_kind",
     "register_module",
+    "register_source",
+    "source_kinds",
+    "source_types",
+    "source_usage",
 ]

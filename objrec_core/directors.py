@@ -1,7 +1,9 @@
 """Directors pipe frames from a source through a recognition system.
 
-``DefinitionDirector`` hands every stage to a view (the GUI implements ``StageView``);
-``DetectionDirector`` hands each detected-object array to sinks. Neither knows any GUI type.
+``DetectionDirector`` owns the headless run loop: frames until the source ends, ``max_frames`` or a stop
+request; progress; sinks for the detected-object arrays; annotation sinks that also receive the frame (and
+every stage, when asked for). ``DefinitionDirector`` hands every stage to a view (the GUI implements
+``StageView``). Neither knows any GUI type or data kind.
 """
 
 from __future__ import annotations
@@ -21,7 +23,39 @@ from .system import PipelineError, RecognitionSystem, Stage
 
 log = logging.getLogger(__name__)
 
+#: Receives each frame's detected objects.
 Sink = Callable[[DetectedObjectArray], None]
+
+
+class AnnotationSink(Protocol):
+    """Receives each frame with its objects and, when the director keeps them, every stage."""
+
+    def __call__(self, frame: Frame, objects: DetectedObjectArray, stages: Sequence[Stage] | None) -> None: ...
+
+
+class Progress(Protocol):
+    """What the run loop reports progress to (a progress bar in the apps)."""
+
+    def start(self, total: int | None) -> None: ...
+
+    def advance(self, frames: int = 1) -> None: ...
+
+    def close(self) -> None: ...
+
+
+@dataclass
+class RunStats:
+    """What a run did: frames processed, objects found, seconds spent, and why it stopped."""
+
+    frames: int = 0
+    objects: int = 0
+    frames_with_objects: int = 0
+    seconds: float = 0.0
+    stopped_by: str = ""
+
+    @property
+    def rate(self) -> float:
+        return self.frames / self.seconds if self.seconds > 0 else 0.0
 
 
 @dataclass
@@ -64,20 +98,21 @@ class _Director:
         elif filters or detector is not None:
             raise TypeError("give either a system or filters and a detector, not both")
         self.system = system
+        #: The frame_id of headers for frames whose source gives none.
         self.frame_id = frame_id
         self._seq = 0
 
-    # The seed's wiring methods, for building a system step by step.
     def add_filter(self, module: Filter) -> None:
+        """Add a filter before the first detector (building a system step by step)."""
         detectors = [i for i, m in enumerate(self.system.modules) if isinstance(m, Detector)]
         self.system.add_module(module, detectors[0] if detectors else None)
 
     def set_detector(self, detector: Detector) -> None:
-        """Replace every detector with this one (the seed's systems had exactly one)."""
+        """Replace every detector with this one."""
         self.system.set_modules([m for m in self.system.modules if not isinstance(m, Detector)] + [detector])
 
     def _header(self, frame: Frame) -> Header:
-        header = Header(seq=self._seq, stamp=frame.stamp, frame_id=self.frame_id)
+        header = Header(seq=self._seq, stamp=frame.stamp, frame_id=frame.frame_id or self.frame_id)
         self._seq += 1
         return header
 
@@ -86,9 +121,7 @@ class _Director:
             raise PipelineError("the pipeline has no detector")
 
     @staticmethod
-    def _frames(
-        source: Iterable[Any], max_frames: int | None, stop: threading.Event | None
-    ) -> Iterator[Frame]:
+    def _frames(source: Iterable[Any], max_frames: int | None, stop: threading.Event | None) -> Iterator[Frame]:
         """Frames until ``max_frames`` or ``stop``, never pulling one more than is processed: a camera asked
         for one frame too many could fail after the work was done."""
         if max_frames is not None:
@@ -100,43 +133,93 @@ class _Director:
 
 
 class DetectionDirector(_Director):
-    """Runs a system headless and hands each frame's detected objects to sinks."""
+    """Runs a system headless and hands each frame's detected objects to sinks.
 
-    def __init__(self, system: RecognitionSystem | None = None, *, sinks: Iterable[Sink] = (), **kwargs: Any):
+    ``annotation_sinks`` also get the frame (for pictures); with ``keep_stages`` they get every stage too
+    (a debug view), at the cost of keeping them.
+    """
+
+    def __init__(
+        self,
+        system: RecognitionSystem | None = None,
+        *,
+        sinks: Iterable[Sink] = (),
+        annotation_sinks: Iterable[AnnotationSink] = (),
+        keep_stages: bool = False,
+        **kwargs: Any,
+    ):
         super().__init__(system, **kwargs)
         self.sinks: list[Sink] = list(sinks)
+        self.annotation_sinks: list[AnnotationSink] = list(annotation_sinks)
+        self.keep_stages = keep_stages
+        #: What the last (or current) ``run`` did.
+        self.stats = RunStats()
 
     def add_sink(self, sink: Sink) -> None:
         self.sinks.append(sink)
 
+    def add_annotation_sink(self, sink: AnnotationSink) -> None:
+        self.annotation_sinks.append(sink)
+
     def process(self, frame: Frame | Any) -> DetectedObjectArray:
+        """One frame through the pipeline and every sink."""
         if not isinstance(frame, Frame):
             frame = Frame(frame, index=self._seq)
-        result = self.system.process(frame.data)
+        result = self.system.process(frame.data, keep_stages=self.keep_stages)
         array = self.system.object_array_type(self._header(frame), result.objects)
         for sink in self.sinks:
             sink(array)
+        for annotation_sink in self.annotation_sinks:
+            annotation_sink(frame, array, result.stages)
         return array
 
-    def process_with_stages(self, frame: Frame | Any) -> tuple[DetectedObjectArray, list[Stage]]:
-        """Like ``process``, keeping every stage (for writing debug views headless); slower."""
-        if not isinstance(frame, Frame):
-            frame = Frame(frame, index=self._seq)
-        result = self.system.process(frame.data, keep_stages=True)
-        array = self.system.object_array_type(self._header(frame), result.objects)
-        for sink in self.sinks:
-            sink(array)
-        return array, result.stages or []
-
     def run(
-        self, source: Iterable[Any], max_frames: int | None = None, stop: threading.Event | None = None
+        self,
+        source: Iterable[Any],
+        max_frames: int | None = None,
+        stop: threading.Event | None = None,
+        progress: Progress | None = None,
     ) -> Iterator[DetectedObjectArray]:
-        """Process frames until the source ends, ``max_frames`` are done or ``stop`` is set."""
+        """Process frames until the source ends, ``max_frames`` are done or ``stop`` is set; ``stats`` counts
+        them as they go. Progress hears the total where the source knows its length."""
         self._check_runnable()
+        self.stats = stats = RunStats()
         if stop is not None and stop.is_set():
+            stats.stopped_by = "stop"
             return
-        for frame in self._frames(source, max_frames, stop):
-            yield self.process(frame)
+        total = getattr(source, "length", None)
+        if max_frames is not None:
+            total = max_frames if total is None else min(total, max_frames)
+        start = time.perf_counter()
+        if progress is not None:
+            progress.start(total)
+        try:
+            for frame in self._frames(source, max_frames, stop):
+                array = self.process(frame)
+                stats.frames += 1
+                stats.objects += len(array.objects)
+                stats.frames_with_objects += bool(array.objects)
+                stats.seconds = time.perf_counter() - start
+                if progress is not None:
+                    progress.advance()
+                yield array
+            if stop is not None and stop.is_set():
+                stats.stopped_by = "stop"
+            elif max_frames is not None and stats.frames >= max_frames:
+                stats.stopped_by = "max_frames"
+            else:
+                stats.stopped_by = "end"
+        finally:
+            stats.seconds = time.perf_counter() - start
+            if progress is not None:
+                progress.close()
+
+    def run_all(self, source: Iterable[Any], max_frames: int | None = None,
+                stop: threading.Event | None = None, progress: Progress | None = None) -> RunStats:
+        """``run`` to the end, for callers that only want the sinks' output and the counts."""
+        for _ in self.run(source, max_frames, stop, progress):
+            pass
+        return self.stats
 
 
 class DefinitionDirector(_Director):

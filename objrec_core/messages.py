@@ -1,7 +1,8 @@
 """Message types shared by 2D and 3D: the ROS ``std_msgs/Header`` and the detected-object array.
 
 The concrete object types (``DetectedObject2D``, ``DetectedObject3D``) live in their packages; they are
-dataclasses whose fields follow the seed's ROS messages, so ``to_dict`` gives the same nesting a ROS
+dataclasses whose fields follow the ROS messages ``object_detection_2d_msgs``/``object_detection_3d_msgs``,
+so ``to_dict`` gives the same nesting a ROS
 consumer would see, one JSON object per line.
 """
 

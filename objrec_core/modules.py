@@ -7,6 +7,7 @@ from dataclasses import dataclass
 from typing import Any, ClassVar
 
 from .messages import DetectedObjectArray
+from .observer import Change
 from .parametrizable import Parametrizable
 
 
@@ -67,8 +68,8 @@ class Detector(Parametrizable):
     def object_name(self, name: str | None) -> None:
         """A name of this detector's own (None: the system's); observers hear of the change."""
         if name != self.own_object_name:
-            self.own_object_name = name
-            self.notify()
+            old, self.own_object_name = self.own_object_name, name
+            self.notify([Change(self, "object_name", old, name)])
 
     @abstractmethod
     def detect(self, frame: Any) -> list[Any]:

@@ -9,17 +9,17 @@ from typing import Any
 
 from .messages import DetectedObjectArray
 from .modules import Detector, Filter
-from .observer import Subject
+from .observer import Change, Subject
 from .parametrizable import Parametrizable
 
 
 class PipelineError(ValueError):
-    """A pipeline that cannot work: duplicate ids, mixed 2D/3D modules, no detector where one is needed."""
+    """A pipeline that cannot work: duplicate ids, modules of different kinds, no detector where one is needed."""
 
 
 @dataclass
 class Stage:
-    """One step's result, for views that show every stage (not only the last, as the seed did)."""
+    """One step's result, for views that show every stage (not only the last)."""
 
     id: str
     type_name: str
@@ -86,13 +86,15 @@ class RecognitionSystem(Subject):
         """Set the object's name and the description; observers hear of a change."""
         if not isinstance(object_name, str) or not object_name.strip():
             raise ValueError(f"the object name must be non-empty text, got {object_name!r}")
-        changed = (object_name, description) != (self._object_name, self._description)
+        changes = [Change(self, name, old, new) for name, old, new in (
+            ("object_name", self._object_name, object_name), ("description", self._description, description))
+            if old != new]
         with self._lock:
             self._object_name, self._description = object_name, description
             for d in self.detectors:
                 d.system_object_name = object_name
-        if changed and notify:
-            self.notify()
+        if changes and notify:
+            self.notify(changes)
 
     @property
     def modules(self) -> tuple[Parametrizable, ...]:
@@ -150,11 +152,11 @@ class RecognitionSystem(Subject):
             for m in modules:
                 if isinstance(m, Detector):
                     m.system_object_name = self._object_name
-            self._modules = modules
+            old, self._modules = self._modules, modules
             if kind is not None:
                 self._kind = kind
         if notify:
-            self.notify()
+            self.notify([Change(self, "pipeline", old, modules)])
 
     def add_module(self, module: Parametrizable, index: int | None = None) -> None:
         with self._lock:

@@ -22,8 +22,9 @@ from PySide6.QtCore import QEvent, QPointF, QSettings, Qt
 from PySide6.QtGui import QMouseEvent
 from PySide6.QtWidgets import QApplication
 
-from objrec_apps.gui import DefinitionGUI, build_preset
-from objrec_core import RecognitionSystem, Rect, kind_plugin
+from objrec_apps.define import starting_system
+from objrec_apps.gui import DefinitionGUI
+from objrec_core import RecognitionSystem, Rect, open_source
 
 SIZE = (1400, 860)
 
@@ -84,7 +85,7 @@ def empty_window(app: QApplication, settings: QSettings, out: Path) -> None:
 
 
 def hsv(app: QApplication, settings: QSettings, out: Path) -> None:
-    gui = window(build_preset("hsv"), settings, "grid")
+    gui = window(starting_system("hsv"), settings, "grid")
     step_to(app, gui, 40)
     hover(gui, "input", "red")  # on the red disk: its BGR and HSV show in the status bar
     save(app, gui, out / "define_hsv.png")
@@ -100,10 +101,12 @@ def hsv(app: QApplication, settings: QSettings, out: Path) -> None:
 def feature(app: QApplication, settings: QSettings, out: Path) -> None:
     from objrec2d import DemoScene
 
-    gui = window(build_preset("feature"), settings, "grid")
+    system = starting_system("feature")
+    detector = system.module("poster")
+    detector.clear_target()  # the shipped file holds one: select it as a user would
+    gui = window(system, settings, "grid")
     step_to(app, gui, 0)
     gui.hand_selection(Rect(*DemoScene().target.reference_rect), gui.last_results)  # what a mouse drag does
-    detector = gui.system.module("features")
     wait_until(app, lambda: detector.target is not None)
     step_to(app, gui, 75)
     save(app, gui, out / "define_feature.png")
@@ -111,8 +114,8 @@ def feature(app: QApplication, settings: QSettings, out: Path) -> None:
 
 
 def shape(app: QApplication, settings: QSettings, out: Path) -> None:
-    source = kind_plugin("3d").open_source("demo")
-    gui = window(build_preset("shape"), settings, "grid", source=source)
+    source = open_source("demo", "3d")
+    gui = window(starting_system("shape"), settings, "grid", source=source)
     step_to(app, gui, 0)
     view = gui.view3d.cloud_view
     view.camera.rotate(0.45, -0.25)  # turned a little, so depth shows

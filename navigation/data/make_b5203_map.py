@@ -1,9 +1,9 @@
-"""Draw the shipped map of room B5.2.03 (b5203.pgm + b5203.yaml) so the seed's poses have a room.
+"""Draw the shipped map of room B5.2.03 (b5203.pgm + b5203.yaml) so the shipped poses have a room.
 
-The seed's own map is not available, so this is a plausible lab laid out around its poses: the patrol
+The original lab's map is not available, so this is a plausible lab laid out around its poses: the patrol
 loop circles a central table, a door in the west wall opens onto a corridor, benches line the north and
 south walls, a cabinet stands at the east wall, and the docking station sits about one metre in front of
-the station pose (14.4, 12.8), facing it. The frame matches the seed's Stage world: 28.8 m x 25.6 m,
+the station pose (14.4, 12.8), facing it. The frame matches the original Stage world: 28.8 m x 25.6 m,
 origin at (0, 0). Run it to regenerate the files: ``python navigation/data/make_b5203_map.py``.
 """
 

@@ -3,7 +3,14 @@
 (``target``), one frame's outcome (``result``) and the debug views (``debug``)."""
 
 from .debug import keypoints_view, side_by_side
-from .geometry import HOMOGRAPHY_METHODS, PolygonLimits, check_quadrilateral, corner_error, rect_corners
+from .geometry import (
+    HOMOGRAPHY_METHODS,
+    PolygonLimits,
+    check_quadrilateral,
+    corner_error,
+    rect_corners,
+    unavailable_homography_methods,
+)
 from .matching import MATCHERS, Matches, TrainedMatcher
 from .result import DetectionStatus, FeatureMatch
 from .target import Target, TargetError, target_from_state, target_to_state
@@ -13,6 +20,8 @@ from .types import (
     FeatureUnavailable,
     available_feature_types,
     create_feature2d,
+    types_using,
+    unavailable_feature_types,
     unavailable_reason,
 )
 
@@ -38,5 +47,8 @@ __all__ = [
     "side_by_side",
     "target_from_state",
     "target_to_state",
+    "types_using",
+    "unavailable_feature_types",
+    "unavailable_homography_methods",
     "unavailable_reason",
 ]

@@ -1,4 +1,4 @@
-"""Debug views of a feature detector: keypoints on the frame, and the seed's side-by-side view (the
+"""Debug views of a feature detector: keypoints on the frame, and the side-by-side view (the
 current frame on the left, the target image on the right, lines between matched keypoints with inliers
 distinguished from outliers, and the detected polygon)."""
 

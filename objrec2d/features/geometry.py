@@ -31,6 +31,17 @@ def homography_flag(method: str) -> int:
     return int(flag)
 
 
+def unavailable_homography_methods() -> dict[str, str]:
+    """``{method: reason}`` for the methods this OpenCV lacks (the ``unavailable`` of ``homography_method``)."""
+    missing = {}
+    for method in HOMOGRAPHY_METHODS:
+        try:
+            homography_flag(method)
+        except FeatureUnavailable as exc:
+            missing[method] = str(exc)
+    return missing
+
+
 def rect_corners(rect: Rect) -> np.ndarray:
     """The rectangle's outline as 4 x 2 float32, clockwise on screen from the top-left.
 

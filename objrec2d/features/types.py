@@ -42,6 +42,11 @@ TYPE_SETTINGS: Mapping[str, Mapping[str, str]] = {
 #: Every parameter name that is part of some feature configuration.
 FEATURE_PARAMETERS: frozenset[str] = frozenset({"feature_type"}.union(*(s.keys() for s in TYPE_SETTINGS.values())))
 
+
+def types_using(parameter: str) -> tuple[str, ...]:
+    """The feature types whose configuration includes ``parameter`` (where a panel shows it)."""
+    return tuple(t for t in FEATURE_TYPES if parameter in TYPE_SETTINGS[t])
+
 _INSTALL_HINT = (
     "AKAZE, BRISK and KAZE live in cv2.xfeatures2d in OpenCV 5, which only the contrib wheels ship "
     "(pip install opencv-contrib-python-headless instead of opencv-python-headless)"
@@ -64,12 +69,12 @@ class FeatureConfig:
     settings: tuple[tuple[str, Any], ...] = ()
 
     @classmethod
-    def from_parameters(cls, parameters: Mapping[str, Any]) -> FeatureConfig:
-        """The configuration the detector's current parameter values select."""
-        feature_type = parameters["feature_type"]
+    def from_parameters(cls, parameters: Any) -> FeatureConfig:
+        """The configuration a detector's parameter snapshot (``detector.params``) selects."""
+        feature_type = parameters.feature_type
         if feature_type not in TYPE_SETTINGS:
             raise ValueError(f"unknown feature type {feature_type!r} (known: {', '.join(FEATURE_TYPES)})")
-        return cls(feature_type, tuple((name, parameters[name]) for name in TYPE_SETTINGS[feature_type]))
+        return cls(feature_type, tuple((name, getattr(parameters, name)) for name in TYPE_SETTINGS[feature_type]))
 
     def to_dict(self) -> dict[str, Any]:
         """As written into a parameter file: ``{type: SIFT, max_features: 1000, ...}``."""
@@ -116,6 +121,11 @@ def unavailable_reason(feature_type: str) -> str | None:
 def available_feature_types() -> list[str]:
     """The types this OpenCV can make, for widgets and benchmarks."""
     return [t for t in FEATURE_TYPES if unavailable_reason(t) is None]
+
+
+def unavailable_feature_types() -> dict[str, str]:
+    """``{type: reason}`` for the types this OpenCV cannot make (the ``unavailable`` of ``feature_type``)."""
+    return {t: reason for t in FEATURE_TYPES if (reason := unavailable_reason(t)) is not None}
 
 
 def check_available(feature_type: str) -> None:

@@ -12,13 +12,11 @@ from .interactive_image import InteractiveImage
 from .main_window import DefinitionGUI
 from .panel_column import PanelColumn
 from .panels import ParameterPanel, create_panel, register_panel, unregister_panel
-from .presets import PRESETS, build_preset
 from .stage_views import StageViews
 from .view3d import View3D
 from .worker import ProcessingWorker, Shown
 
 __all__ = [
-    "PRESETS",
     "CloudView",
     "DefinitionGUI",
     "InteractiveImage",
@@ -28,7 +26,6 @@ __all__ = [
     "Shown",
     "StageViews",
     "View3D",
-    "build_preset",
     "create_panel",
     "register_panel",
     "unregister_panel",

@@ -35,9 +35,8 @@ def layer_colour(index: int) -> tuple[int, int, int]:
     return LAYER_COLOURS[1 + (index - 1) % (len(LAYER_COLOURS) - 1)]
 
 
-def cloud_points(cloud: Any) -> np.ndarray | None:
-    """The N x 3 float32 points of anything cloud-like (``objrec3d.PointCloud``, an array), or None."""
-    points = getattr(cloud, "points", cloud)
+def cloud_points(points: Any) -> np.ndarray | None:
+    """The N x 3 float32 points of a layer (what ``Kind.points`` gives), or None for anything else."""
     if not isinstance(points, np.ndarray) or points.ndim != 2 or points.shape[1] != 3:
         return None
     return np.asarray(points, dtype=np.float32)
@@ -68,6 +67,7 @@ class CloudScene:
 
     @classmethod
     def from_layers(cls, layers: Sequence[tuple[str, Any]]) -> CloudScene:
+        """Merge named N x 3 point arrays (the original first); anything else is left out."""
         groups: list[tuple[np.ndarray, np.ndarray]] = []  # (all points, owner with -1 = invalid)
         names, counts = [], []
         for name, cloud in layers:

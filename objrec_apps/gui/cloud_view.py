@@ -1,7 +1,8 @@
 """CloudView: the interactive point-cloud view (rotate, zoom, pan, reset) with detected boxes.
 
-It paints the software renderer's image (``cloud_render``) and draws each detected box's edges and a small
-coordinate frame at its centre with QPainter on top, so it needs no OpenGL and works offscreen.
+It paints the software renderer's image (``cloud_render``) and draws each detected object's box (its
+``Outline`` from the data kind) and a small coordinate frame at its centre with QPainter on top, so it needs
+no OpenGL and works offscreen.
 """
 
 from __future__ import annotations
@@ -14,7 +15,7 @@ from PySide6.QtCore import QPointF, QRectF, QSize, Qt, Signal
 from PySide6.QtGui import QColor, QFont, QKeyEvent, QMouseEvent, QPainter, QPaintEvent, QPen, QWheelEvent
 from PySide6.QtWidgets import QSizePolicy, QWidget
 
-from objrec3d.messages import Quaternion
+from objrec_core import Outline
 
 from .cloud_render import NEAR, CloudScene, OrbitCamera, layer_colour, render
 from .images import ImageBuffer, rgb_qimage
@@ -23,34 +24,20 @@ BOX_COLOUR = QColor(255, 255, 0)
 AXIS_COLOURS = (QColor(255, 60, 60), QColor(60, 255, 60), QColor(80, 140, 255))
 #: Radians per pixel of mouse drag.
 ROTATE_SPEED = 0.008
-
-
-def box_geometry(obj: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
-    """Centre (3), rotation (3 x 3) and side lengths (3) of a detected object's oriented box, or None.
-
-    Reads only the message fields (``box.pose.position``, ``box.pose.orientation``, ``box.width/height/
-    depth``), so any detector that reports the seed's ``DetectedObject3D`` fields is drawn.
-    """
-    box = getattr(obj, "box", None)
-    pose = getattr(box, "pose", None)
-    if pose is None:
-        return None
-    p, q = pose.position, pose.orientation
-    centre = np.array([p.x, p.y, p.z], dtype=np.float64)
-    rotation = Quaternion(q.x, q.y, q.z, q.w).as_matrix()  # normalises, as a received message may need
-    sides = np.array([box.width, box.height, box.depth], dtype=np.float64)
-    if not (np.isfinite(centre).all() and np.isfinite(sides).all()):
-        return None
-    return centre, rotation, sides
-
-
-def box_corners(centre: np.ndarray, rotation: np.ndarray, sides: np.ndarray) -> np.ndarray:
-    """The eight corners; corner i has the signs of bits 2, 1, 0 of i along local x, y, z."""
-    signs = np.array([[(i >> 2) & 1, (i >> 1) & 1, i & 1] for i in range(8)], dtype=np.float64) * 2 - 1
-    return (signs * sides / 2.0) @ rotation.T + centre
-
-
+#: Corner pairs joined by the box's twelve edges (corner i: the signs of bits 2, 1, 0 along local x, y, z).
 BOX_EDGES = [(i, i ^ bit) for i in range(8) for bit in (1, 2, 4) if i < i ^ bit]
+
+
+def box_frame(corners: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
+    """Centre (3), local axes (3 x 3, one unit vector per row: x, y, z) and side lengths (3) of an oriented
+    box given by its eight corners as ``Kind.outlines`` gives them; None when they are not finite."""
+    box = np.asarray(corners, dtype=np.float64)
+    if box.shape != (8, 3) or not np.isfinite(box).all():
+        return None
+    edges = np.stack([box[4] - box[0], box[2] - box[0], box[1] - box[0]])  # along local x, y and z
+    sides = np.linalg.norm(edges, axis=1)
+    axes = np.divide(edges, sides[:, None], out=np.eye(3), where=sides[:, None] > 0)
+    return box.mean(axis=0), axes, sides
 
 
 class CloudView(QWidget):
@@ -63,7 +50,8 @@ class CloudView(QWidget):
         super().__init__(parent)
         self.camera = OrbitCamera()
         self.scene = CloudScene()
-        self.objects: list[Any] = []
+        #: One outline per detected object, in the detection list's order (None: nothing to draw).
+        self.outlines: list[Outline | None] = []
         self.point_size = 1
         self.hidden: frozenset[int] = frozenset()
         self._fitted = False
@@ -79,10 +67,11 @@ class CloudView(QWidget):
         return QSize(640, 480)
 
     # -- content --------------------------------------------------------------------------------------
-    def set_scene(self, scene: CloudScene, objects: Sequence[Any] = ()) -> None:
-        """Show a new frame's layers and detections; the view fits itself to the first cloud it gets."""
+    def set_scene(self, scene: CloudScene, outlines: Sequence[Outline | None] = ()) -> None:
+        """Show a new frame's layers and its detections' outlines (numbered in order); the view fits itself to
+        the first cloud it gets."""
         self.scene = scene
-        self.objects = list(objects)
+        self.outlines = list(outlines)
         if not self._fitted and scene.points.shape[0]:
             self.camera.fit(scene.bounds(), self._aspect())
             self._fitted = True
@@ -128,8 +117,9 @@ class CloudView(QWidget):
         painter = QPainter(self)
         painter.drawImage(0, 0, self.render_image().qimage)
         painter.setRenderHint(QPainter.RenderHint.Antialiasing)
-        for number, obj in enumerate(self.objects, 1):
-            self._draw_object(painter, obj, number)
+        for number, outline in enumerate(self.outlines, 1):
+            if outline is not None and outline.box is not None:
+                self._draw_box(painter, outline, number)
         self._draw_legend(painter)
         painter.end()
 
@@ -137,28 +127,27 @@ class CloudView(QWidget):
         if da > NEAR and db > NEAR:
             painter.drawLine(QPointF(*a), QPointF(*b))
 
-    def _draw_object(self, painter: QPainter, obj: Any, number: int) -> None:
-        geometry = box_geometry(obj)
+    def _draw_box(self, painter: QPainter, outline: Outline, number: int) -> None:
+        geometry = box_frame(outline.box)
         if geometry is None:
             return
-        centre, rotation, sides = geometry
-        uv, depth = self.project(box_corners(centre, rotation, sides))
+        centre, axes, sides = geometry
+        uv, depth = self.project(np.asarray(outline.box, dtype=np.float64))
         painter.setPen(QPen(BOX_COLOUR, 2))
         for i, j in BOX_EDGES:
             self._line(painter, uv[i], uv[j], depth[i], depth[j])
         # A small coordinate frame at the centre: the box's local x (red), y (green), z (blue).
         length = float(np.clip(0.6 * sides.max() / 2.0, 0.01, 0.25))
-        ends = centre + rotation.T * length
+        ends = centre + axes * length
         uv_axes, depth_axes = self.project(np.vstack([centre[None, :], ends]))
         for axis in range(3):
             painter.setPen(QPen(AXIS_COLOURS[axis], 2))
             self._line(painter, uv_axes[0], uv_axes[axis + 1], depth_axes[0], depth_axes[axis + 1])
         if depth_axes[0] > NEAR:
-            shape = getattr(obj, "shape", "") or getattr(obj, "name", "")
             painter.setPen(QPen(BOX_COLOUR))
             painter.setFont(QFont(painter.font().family(), 9))
             top = uv[np.argmin(uv[:, 1])] if np.all(depth > NEAR) else uv_axes[0]
-            painter.drawText(QPointF(top[0] + 4, top[1] - 4), f"{number}: {shape}")
+            painter.drawText(QPointF(top[0] + 4, top[1] - 4), f"{number}: {outline.label}")
 
     def _draw_legend(self, painter: QPainter) -> None:
         painter.setFont(QFont(painter.font().family(), 9))
@@ -172,10 +161,10 @@ class CloudView(QWidget):
             count = self.scene.counts[index] if index < len(self.scene.counts) else 0
             painter.drawText(QPointF(26, y + 11), f"{name}  ({count:,} points)")
             y += 17
-        if self.objects:
+        if self.outlines:
             painter.fillRect(QRectF(8, y, 12, 12), BOX_COLOUR)
             painter.setPen(QPen(QColor(230, 230, 230)))
-            painter.drawText(QPointF(26, y + 11), f"{len(self.objects)} detected")
+            painter.drawText(QPointF(26, y + 11), f"{len(self.outlines)} detected")
 
     # -- interaction ------------------------------------------------------------------------------------
     def mousePressEvent(self, event: QMouseEvent) -> None:  # noqa: N802 - Qt override

@@ -7,6 +7,7 @@ if the detector grows, and shows the generated panel's content alone where these
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from typing import Any
 
 import cv2
@@ -15,7 +16,7 @@ from PySide6.QtCore import Qt, QTimer
 from PySide6.QtGui import QPixmap
 from PySide6.QtWidgets import QGroupBox, QLabel, QPushButton, QVBoxLayout, QWidget
 
-from objrec_core import Parametrizable
+from objrec_core import Change, Parametrizable
 
 from .images import ImageBuffer
 from .panels import ParameterPanel, register_panel
@@ -67,6 +68,10 @@ class FeatureDetectorPanel(ParameterPanel):
     def redraw(self) -> None:
         super().redraw()
         self.show_target()
+
+    def apply_changes(self, changes: Sequence[Change]) -> None:
+        super().apply_changes(changes)
+        self.show_target()  # a "state" change (a loaded target) or a parameter that recomputes the target
 
     def show_target(self) -> None:
         target = getattr(self.module, "target", None)

@@ -1,5 +1,5 @@
-"""InteractiveImage: an OpenCV image scaled to the widget, with mouse events and area selection in image
-pixels (the seed's GUI reported widget pixels, which shifted as soon as the window was resized)."""
+"""InteractiveImage: a picture scaled to the widget, with mouse events and area selection in image pixels
+(widget pixels would shift as soon as the window was resized)."""
 
 from __future__ import annotations
 

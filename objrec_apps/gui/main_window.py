@@ -1,7 +1,8 @@
 """DefinitionGUI: the window in which a user tunes a pipeline live and saves its parameter file.
 
 It wires the pieces, each in a file of its own: the processing worker (off the GUI thread), the stage
-views (2D) or the cloud view (3D), the panel column, the source bar, the File and Pipeline menus.
+views or the cloud view (for data kinds whose views show points), the panel column, the source bar, the File
+and Pipeline menus. Everything kind-specific goes through the pipeline's ``Kind``: the window names no kind.
 """
 
 from __future__ import annotations
@@ -9,6 +10,7 @@ from __future__ import annotations
 import logging
 import time
 from collections.abc import Callable
+from dataclasses import dataclass
 from typing import Any
 
 from PySide6.QtCore import QByteArray, QSettings, Qt, Signal
@@ -25,11 +27,15 @@ from PySide6.QtWidgets import (
 from objrec_core import (
     DefinitionDirector,
     FrameSource,
+    Kind,
     RecognitionSystem,
     Rect,
     SelectionResult,
+    SourceError,
     StageResults,
-    kind_plugin,
+    UnknownModuleError,
+    get_kind,
+    source_kinds,
 )
 
 from .panel_column import PanelColumn
@@ -45,6 +51,15 @@ log = logging.getLogger(__name__)
 #: Called with each area the user selects and the results of the frame it was drawn on.
 SelectionCallback = Callable[[Rect, StageResults], None]
 
+
+@dataclass
+class Prepared:
+    """What the worker thread made of a result for display, and the data kind it was made for."""
+
+    kind: Kind
+    content: Any
+
+
 ABOUT = """<h3>objrec-define</h3>
 <p>Tune a recognition pipeline on live data and save it as a parameter file that <code>objrec-detect</code>
 runs unchanged, headless.</p>
@@ -52,9 +67,10 @@ runs unchanged, headless.</p>
 <li><b>Parameters</b> (right): one panel per module, in pipeline order. Every change applies at once.</li>
 <li><b>Views</b> (centre): the original frame with the detections, each filter's output and each detector's
 debug view, as tabs or a grid (View menu). Hover for a pixel's coordinates, BGR and HSV values; drag a
-rectangle to give a target to the detectors (the feature detector learns it). 3D pipelines show the cloud:
-drag to rotate, right drag to pan, wheel to zoom, double click to reset.</li>
-<li><b>Source</b> (top): the demo scene, a camera, a file or a folder; pause, step, frames per second.</li>
+rectangle to give a target to the detectors (the feature detector learns it). Pipelines on point clouds
+show the cloud: drag to rotate, right drag to pan, wheel to zoom, double click to reset.</li>
+<li><b>Source</b> (top): the demo scene, a camera, a file, a folder or any source spec; pause, step,
+frames per second.</li>
 <li><b>Pipeline</b> menu: add, remove and reorder modules, including your own registered filters.</li>
 <li><b>File</b> menu: open and save parameter files.</li>
 </ul>"""
@@ -66,7 +82,8 @@ def default_settings() -> QSettings:
 
 class DefinitionGUI(QMainWindow):
     """The definition window for one RecognitionSystem (the object is kept; File>Open may replace its
-    modules). ``source`` is a spec (``demo``, ``camera:0``, a path) or an open FrameSource.
+    modules). ``source`` is a spec (``demo``, ``camera:0``, a path) or an open FrameSource. A spec that
+    several data kinds read (``demo``) waits, while the pipeline has no kind, until it gets one.
 
     ``frameShown`` is emitted after each frame is put on screen, with the worker's ``Shown`` record.
     """
@@ -90,14 +107,17 @@ class DefinitionGUI(QMainWindow):
         self.worker = ProcessingWorker(self.director, fps_limit=fps_limit, prepare=self._prepare)
         self.selection_callbacks: list[SelectionCallback] = [self.give_selection_to_detectors]
         self.frame_rate = FrameRate()
+        #: The data kind of the source open (or being opened), where known.
         self._source_kind: str | None = None
+        #: A spec of several kinds, opened once the pipeline has a kind.
+        self._waiting_spec: str | None = None
+        self._kind_missing_reported = False
         self._last_results: StageResults | None = None
-        self._annotate_2d: Callable[[Any, Any], Any] | None = None
         #: The parameter generation of the frame on screen (compare with ``worker.generation``).
         self.last_shown_generation = -1
         self.files = ParameterFiles(self.system, self.settings, self, exclusive=self.worker.exclusive)
 
-        self.stage_views = StageViews(self._annotate, view_mode or str(self.settings.value("view/mode", "tabs")))
+        self.stage_views = StageViews(view_mode or str(self.settings.value("view/mode", "tabs")))
         self.view3d = View3D()
         self.central = QStackedWidget()
         self.central.addWidget(self.stage_views)
@@ -116,7 +136,7 @@ class DefinitionGUI(QMainWindow):
                                     | QDockWidget.DockWidgetFeature.DockWidgetFloatable)
         self.addDockWidget(Qt.DockWidgetArea.RightDockWidgetArea, self.panel_dock)
 
-        self.source_bar = SourceBar(self.files.last_folder, self)
+        self.source_bar = SourceBar(self.files.last_folder, self, kind=lambda: self.system.kind)
         self.addToolBar(Qt.ToolBarArea.TopToolBarArea, self.source_bar)
 
         self.hover_label = QLabel()
@@ -136,8 +156,8 @@ class DefinitionGUI(QMainWindow):
         if paused:
             self.set_paused(True)
         if isinstance(source, FrameSource):
-            self._source_kind = self.system.kind or "2d"
-            self.worker.set_source(source)
+            self._source_kind = source.kind or self.system.kind
+            self.worker.set_source(source, self._source_kind)
         elif source:
             self.open_source(source)
         self.worker.start()
@@ -202,17 +222,56 @@ class DefinitionGUI(QMainWindow):
         self.stage_views.hovered.connect(self.hover_label.setText)
 
     # -- sources ------------------------------------------------------------------------------------------
-    def open_source(self, spec: str) -> None:
-        """Open a source for the pipeline's kind of data (in the worker thread)."""
-        self._source_kind = self.system.kind or "2d"
-        self.show_message(f"Opening {spec}…")
-        self.worker.open_source(spec, self._source_kind)
+    def open_source(self, spec: str, why: str = "") -> None:
+        """Open a source for the pipeline's kind of data (in the worker thread). With no kind yet, the kind
+        whose source reads the spec; a spec of several kinds (``demo``) waits for the pipeline to get one.
+        ``why`` starts the status message."""
+        kind = self.system.kind
+        if kind is None:
+            try:
+                kinds = source_kinds(spec)
+            except SourceError as exc:
+                self.show_message(str(exc), error=True)
+                return
+            if len(kinds) > 1:
+                self._waiting_spec = spec
+                self.source_bar.set_waiting(spec)
+                what = " and ".join(self._kind_title(k) for k in kinds)
+                self.show_message(f"{spec} is a source of {what}: add a module or open a parameter file to choose")
+                self.stage_views.set_placeholder(
+                    f"{spec} is a source of {what}.\nThe pipeline's data kind decides which: add a module from the "
+                    f"Pipeline menu or open a parameter file (File > Open), and {spec} opens for it.")
+                return
+            kind = kinds[0] if kinds else None  # none: opening it says what is wrong
+        self._waiting_spec = None
+        self._source_kind = kind
+        self.show_message(f"{why}: opening {spec}…" if why else f"Opening {spec}…")
+        self.worker.open_source(spec, kind)
+
+    @staticmethod
+    def _kind_title(name: str) -> str:
+        try:
+            return f"{get_kind(name).title} ({name})"
+        except UnknownModuleError:
+            return name
+
+    def _kind(self, name: str | None) -> Kind | None:
+        """The registered kind called ``name`` (None, or reported, when there is none)."""
+        if name is None:
+            return None
+        try:
+            return get_kind(name)
+        except UnknownModuleError as exc:
+            self.show_message(str(exc), error=True)
+            return None
 
     def set_paused(self, paused: bool) -> None:
         self.worker.set_paused(paused)
         self.source_bar.set_paused(paused)
 
-    def _source_opened(self, name: str) -> None:
+    def _source_opened(self, name: str, kind: str) -> None:
+        if kind:
+            self._source_kind = kind
         self.source_bar.set_source_name(name)
         self.show_message(f"Source: {name}")
         self.stage_views.clear()
@@ -223,25 +282,46 @@ class DefinitionGUI(QMainWindow):
         self.show_message(f"{name} ended: parameter changes still apply to its last frame")
 
     def _follow_kind(self) -> None:
-        """Show the page for the pipeline's kind; a pipeline that became 3D (or 2D) gets that kind's demo."""
-        kind = self.system.kind or self._source_kind or "2d"
-        self.central.setCurrentWidget(self.view3d if kind == "3d" else self.stage_views)
-        if self._source_kind is not None and self.system.kind is not None and self.system.kind != self._source_kind:
-            self.show_message(f"the pipeline now works on {self.system.kind} data: opening its demo source")
-            self.open_source("demo")
+        """Show the page for the pipeline's kind; a spec waiting for a kind opens now, and a pipeline whose
+        kind changed gets that kind's demo source."""
         self._update_title()
+        kind = self._kind(self.system.kind)
+        if kind is None:
+            return
+        self._kind_missing_reported = False
+        self.central.setCurrentWidget(self.view3d if kind.has_points else self.stage_views)
+        waiting, self._waiting_spec = self._waiting_spec, None
+        if waiting is not None:
+            try:
+                readable = kind.name in source_kinds(waiting)
+            except SourceError:
+                readable = False
+            if readable:
+                self.open_source(waiting)
+            else:
+                self.open_source(kind.demo_spec, f"no source of {kind.title} reads {waiting}")
+        elif self._source_kind is not None and kind.name != self._source_kind:
+            self.open_source(kind.demo_spec, f"the pipeline now works on {kind.title}")
 
     # -- results ------------------------------------------------------------------------------------------
-    def _annotate(self, frame: Any, objects: Any) -> Any:
-        if self._annotate_2d is None:  # looked up once: an entry-point lookup reads every package's metadata
-            self._annotate_2d = kind_plugin("2d").annotate
-        return self._annotate_2d(frame, objects)
+    def _data_kind(self) -> Kind | None:
+        """The kind of the frames processed: the pipeline's, else the source's (any thread)."""
+        name = self.system.kind or self.worker.source_kind
+        if name is None:
+            return None
+        try:
+            return get_kind(name)
+        except UnknownModuleError:
+            return None
 
-    def _prepare(self, results: StageResults) -> Any:
-        """Worker thread: draw the 2D stage pictures, or merge the 3D layers, before the GUI sees them."""
-        if hasattr(results.frame.data, "points"):
-            return prepare_scene(results)
-        return stage_images(results, self._annotate, self.stage_views.display_sizes)
+    def _prepare(self, results: StageResults) -> Prepared | None:
+        """Worker thread: draw the stage pictures, or merge the point layers, before the GUI sees them."""
+        kind = self._data_kind()
+        if kind is None:
+            return None
+        if kind.has_points:
+            return Prepared(kind, prepare_scene(results, kind))
+        return Prepared(kind, stage_images(results, kind, self.stage_views.display_sizes))
 
     def _show_newest(self) -> None:
         shown = self.worker.take()
@@ -251,13 +331,21 @@ class DefinitionGUI(QMainWindow):
 
     def show_results(self, shown: Shown) -> None:
         results = shown.results
-        is_cloud = hasattr(results.frame.data, "points")
-        if is_cloud:
+        prepared = shown.prepared if isinstance(shown.prepared, Prepared) else None
+        kind = prepared.kind if prepared is not None else self._data_kind()
+        if kind is None:
+            if not self._kind_missing_reported:
+                self._kind_missing_reported = True
+                self.show_message("the frames' data kind is not known yet: add a module from the Pipeline menu "
+                                  "or open a parameter file", error=True)
+            return
+        content = prepared.content if prepared is not None else None
+        if kind.has_points:
             self.central.setCurrentWidget(self.view3d)
-            self.view3d.show_results(results, shown.prepared)
+            self.view3d.show_results(results, kind, content)
         else:
             self.central.setCurrentWidget(self.stage_views)
-            self.stage_views.show_results(results, shown.prepared)
+            self.stage_views.show_results(results, kind, content)
         self._last_results = results
         self.last_shown_generation = shown.generation
         self.frame_rate.tick(time.perf_counter())
@@ -327,6 +415,8 @@ class DefinitionGUI(QMainWindow):
     def _update_title(self) -> None:
         path = self.files.path
         name = path.name if path else "untitled"
+        if path is None and self.files.origin:
+            name += f", from the shipped {self.files.origin}"
         self.setWindowTitle(f"objrec-define — {name} ({self.system.kind or 'empty'} pipeline)")
         text = str(path) if path else "not saved yet"
         metrics = self.path_label.fontMetrics()

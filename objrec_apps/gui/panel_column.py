@@ -2,35 +2,40 @@
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from typing import Any
 
 from PySide6.QtCore import Signal
 from PySide6.QtWidgets import QFormLayout, QLabel, QLineEdit, QVBoxLayout, QWidget
 
-from objrec_core import Parametrizable, RecognitionSystem
+from objrec_core import Change, Parametrizable, RecognitionSystem
 
 from .panels import create_panel
 
 
 class _SystemBinding:
+    """The system's observer: hands each notification's changes to the column in the GUI thread."""
+
     def __init__(self, column: PanelColumn) -> None:
         self.column: PanelColumn | None = column
 
-    def update(self, subject: Any) -> None:
+    def update(self, subject: Any, changes: Sequence[Change]) -> None:
         column = self.column
         if column is not None:
-            column.pipeline_changed.emit()
+            column.system_changed.emit(tuple(changes))
 
 
 class PanelColumn(QWidget):
     """Panels for every module of ``system``, plus the object name that detections carry.
 
     Panels of modules that stay in the pipeline are kept (with their observer binding) when modules are
-    added, removed or moved; only new modules get new panels.
+    added, removed or moved; only new modules get new panels. ``pipeline_changed`` follows a pipeline change
+    once the panels match it.
     """
 
     error = Signal(str)
     pipeline_changed = Signal()
+    system_changed = Signal(object)
 
     def __init__(self, system: RecognitionSystem, parent: QWidget | None = None) -> None:
         super().__init__(parent)
@@ -49,7 +54,7 @@ class PanelColumn(QWidget):
         self.empty_label.setWordWrap(True)
         layout.addWidget(self.empty_label)
         layout.addStretch(1)
-        self.pipeline_changed.connect(self.rebuild)
+        self.system_changed.connect(self._system_changed)
         self._binding = _SystemBinding(self)
         system.add_observer(self._binding)
         self.rebuild()
@@ -63,6 +68,14 @@ class PanelColumn(QWidget):
             if module.id == module_id:
                 return panel
         raise KeyError(f"no panel for module {module_id!r}")
+
+    def _system_changed(self, changes: Sequence[Change]) -> None:
+        names = {c.name for c in changes}
+        if "object_name" in names:
+            self.object_name.setText(self.system.object_name)
+        if "pipeline" in names:
+            self.rebuild()
+            self.pipeline_changed.emit()
 
     def rebuild(self) -> None:
         """Match the panels to the pipeline: keep, add, drop and reorder."""

@@ -1,6 +1,6 @@
-"""Parameter panels bound to their module as the seed's Document-View design: the widget calls the
-module's setter, the module notifies its observers, the panel redraws from the module's getters. A change
-made anywhere else (code, File>Open, another panel) therefore shows at once.
+"""Parameter panels bound to their module in a Document-View design: the widget calls the module's setter,
+the module notifies its observers with the changes, the panel shows the changed values from the module's
+getters. A change made anywhere else (code, File>Open, another panel) therefore shows at once.
 
 A module type that needs more than the generated widgets registers its own panel: ``register_panel`` in
 code, or an entry point in the ``objrec.gui_panels`` group (name = module type, value = a callable taking
@@ -11,14 +11,14 @@ from __future__ import annotations
 
 import logging
 import threading
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from importlib.metadata import entry_points
 from typing import Any
 
 from PySide6.QtCore import Qt, Signal
 from PySide6.QtWidgets import QFormLayout, QGroupBox, QHBoxLayout, QLabel, QPushButton, QVBoxLayout, QWidget
 
-from objrec_core import ParameterError, Parametrizable
+from objrec_core import Change, ParameterError, Parametrizable
 
 from .param_widgets import ParameterEditor, editor_for
 
@@ -65,26 +65,29 @@ def create_panel(module: Parametrizable) -> QWidget:
 
 
 class _Binding:
-    """The module's observer: forwards notifications, from whatever thread, to the panel's signal."""
+    """The module's observer: forwards each notification's changes, from whatever thread, to the panel's
+    signal (queued when a worker thread made the change)."""
 
     def __init__(self, panel: ParameterPanel) -> None:
         self.panel: ParameterPanel | None = panel
 
-    def update(self, subject: Any) -> None:
+    def update(self, subject: Any, changes: Sequence[Change]) -> None:
         panel = self.panel
         if panel is not None:
-            panel.module_changed.emit()  # queued when a worker thread made the change
+            panel.module_changed.emit(tuple(changes))
 
 
 class ParameterPanel(QGroupBox):
     """The generated panel: one editor per declared parameter, a Restore-defaults button.
 
-    Titled with the module's id (and its type where the two differ). ``error`` carries the message of a
-    value the module refused, for the status bar; the editor then snaps back to the module's value.
+    Titled with the module's id (and its type where the two differ). Only the parameters that matter with
+    the current values are shown (``spec.is_relevant``), re-evaluated after every change; a change updates
+    only the editors of the parameters it names. ``error`` carries the message of a value the module
+    refused, for the status bar; the editor then snaps back to the module's value.
     """
 
     error = Signal(str)
-    module_changed = Signal()
+    module_changed = Signal(object)
 
     def __init__(self, module: Parametrizable, parent: QWidget | None = None) -> None:
         title = module.id if module.id == module.type_name else f"{module.id}  ({module.type_name})"
@@ -93,11 +96,13 @@ class ParameterPanel(QGroupBox):
         self.setObjectName(f"panel:{module.id}")
         self.setToolTip((type(module).__doc__ or module.type_name).strip().split("\n\n")[0])
         self.editors: dict[str, ParameterEditor] = {}
+        self._specs = {spec.name: spec for spec in module.parameter_specs()}
+        self._shown: set[str] = set(self._specs)
         layout = QVBoxLayout(self)
         self.form = QFormLayout()
         self.form.setFieldGrowthPolicy(QFormLayout.FieldGrowthPolicy.AllNonFixedFieldsGrow)
         layout.addLayout(self.form)
-        for spec in module.parameter_specs():
+        for spec in self._specs.values():
             editor = editor_for(spec, self)
             editor.edited.connect(self._edited)
             label = QLabel(spec.name)
@@ -114,23 +119,48 @@ class ParameterPanel(QGroupBox):
         self.restore_button.setEnabled(bool(self.editors))
         buttons.addWidget(self.restore_button)
         layout.addLayout(buttons)
-        self.module_changed.connect(self.redraw, Qt.ConnectionType.AutoConnection)
+        self.module_changed.connect(self.apply_changes, Qt.ConnectionType.AutoConnection)
         self._binding = _Binding(self)
         module.add_observer(self._binding)
         self.redraw()
 
+    @property
+    def shown_parameters(self) -> list[str]:
+        """The parameters whose editors are shown (the relevant ones), in declaration order."""
+        return [name for name in self.editors if name in self._shown]
+
     def redraw(self) -> None:
-        """Show the module's current values (the View half of the binding)."""
+        """Show every current value and which parameters matter (the View half of the binding)."""
         values = self.module.get_parameters()
         for name, editor in self.editors.items():
             editor.show_value(values[name])
+        self._show_relevant(values)
+
+    def apply_changes(self, changes: Sequence[Change]) -> None:
+        """Show what changed: the editors of the parameters named, then which parameters matter now."""
+        names = [c.name for c in changes if c.name in self.editors]
+        if not names:
+            return
+        values = self.module.get_parameters()  # the value in force now: a later change may have overtaken
+        for name in dict.fromkeys(names):
+            self.editors[name].show_value(values[name])
+        self._show_relevant(values)
+
+    def _show_relevant(self, values: dict[str, Any]) -> None:
+        shown = {name for name, spec in self._specs.items() if spec.is_relevant(values)}
+        if shown == self._shown:
+            return
+        for name, editor in self.editors.items():
+            if (name in shown) != (name in self._shown):
+                self.form.setRowVisible(editor, name in shown)
+        self._shown = shown
 
     def _edited(self, name: str, value: Any) -> None:
         try:
             self.module.set_parameters(**{name: value})
         except (ParameterError, ValueError) as exc:
             self.error.emit(str(exc))
-            self.redraw()
+            self.editors[name].show_value(self.module.get_parameters()[name])
 
     def restore_defaults(self) -> None:
         try:

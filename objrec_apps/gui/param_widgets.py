@@ -3,6 +3,11 @@
 Editors never touch a module: they emit ``edited(name, value)`` and show what they are told with
 ``show_value`` (the panel's Document-View binding does both). Slider drags go through a ``Throttle`` so a
 drag across the range sends a handful of updates, not hundreds.
+
+A number gets a slider over its soft range (``spec.slider_range``) and a spin box over its hard bounds: the
+slider is for tuning within the usual values, the spin box for any value the declaration allows, stored as
+typed (an Int with an enforced step takes the nearest allowed value). A value past the soft range pins the
+slider at that end.
 """
 
 from __future__ import annotations
@@ -28,8 +33,18 @@ from objrec_core import Bool, Choice, Float, Int, Parameter, Str
 
 #: At most one update per this many milliseconds while a slider is dragged.
 THROTTLE_MS = 40
-#: Finest slider resolution for a float without a step.
+#: Most positions a slider has: finer steps over a wide soft range are coarsened (typing stays exact).
 MAX_SLIDER_POSITIONS = 100_000
+#: Positions a float slider without a declared step aims for.
+FLOAT_SLIDER_POSITIONS = 1000
+#: Spin-box steps across the soft range for a float without a declared step.
+FLOAT_SPIN_STEPS = 100
+#: QSpinBox holds a 32-bit int: the widest range an Int's spin box can offer.
+INT_LIMIT = 2**31 - 1
+#: What a float's spin box offers on an open side.
+FLOAT_LIMIT = 1e12
+#: Most decimals a float's spin box shows.
+MAX_DECIMALS = 8
 
 _NOTHING = object()
 
@@ -93,58 +108,96 @@ class ParameterEditor(QWidget):
         self.edited.emit(self.spec.name, value)
 
 
+def _number_text(value: float) -> str:
+    return str(value) if isinstance(value, int) else f"{value:g}"
+
+
 def tooltip(spec: Parameter) -> str:
-    """The declaration's one-line description and its allowed values."""
-    text = spec.doc or spec.name
-    return f"{text}\n{spec.name}: {spec.describe()}, default {spec.default!r}"
+    """The declaration's description, its allowed values, the slider's range where narrower, and when the
+    parameter matters."""
+    lines = [spec.doc or spec.name, f"{spec.name}: {spec.describe()}, default {spec.default!r}"]
+    if isinstance(spec, Int | Float):
+        soft = spec.slider_range
+        if soft is not None and (soft[0] != spec.min or soft[1] != spec.max):
+            lines.append(f"the slider covers {_number_text(soft[0])}..{_number_text(soft[1])}; type a value "
+                         "beyond it into the box")
+    if isinstance(spec, Choice) and spec.unavailable:
+        lines.append("not available here: " + "; ".join(f"{c} ({why})" for c, why in spec.unavailable.items()))
+    relevance = spec.relevance_text()
+    if relevance:
+        lines.append(f"matters {relevance}")
+    return "\n".join(lines)
 
 
-def _decimals(step: float) -> int:
-    return min(6, max(1, math.ceil(-math.log10(step)) + 1)) if step > 0 else 3
+def nice_step(value: float, *, up: bool = False) -> float:
+    """The 1, 2 or 5 times a power of ten nearest below (``up``: above) ``value``."""
+    if value <= 0 or not math.isfinite(value):
+        return 1.0
+    exponent = math.floor(math.log10(value))
+    candidates = [m * 10.0**e for e in (exponent - 1, exponent, exponent + 1) for m in (1, 2, 5)]
+    if up:
+        return min(c for c in candidates if c >= value * (1 - 1e-9))
+    return max(c for c in candidates if c <= value * (1 + 1e-9))
+
+
+def spin_step(spec: Int | Float) -> float:
+    """The spin box's arrow step: an Int's enforced step (else 1); a Float's declared step, else a round
+    fraction of its soft range (else of its default's size)."""
+    if isinstance(spec, Int):
+        return float(spec.enforced_step or 1)
+    if spec.step:
+        return float(spec.step)
+    soft = spec.slider_range
+    if soft is not None and soft[1] > soft[0]:
+        return nice_step((soft[1] - soft[0]) / FLOAT_SPIN_STEPS)
+    return nice_step(abs(spec.default) / 10) if spec.default else 0.1
+
+
+def exact_decimals(value: float) -> int:
+    """The fewest decimals that write ``value`` exactly (up to MAX_DECIMALS)."""
+    for decimals in range(MAX_DECIMALS + 1):
+        if abs(round(value, decimals) - value) <= 1e-12 * max(1.0, abs(value)):
+            return decimals
+    return MAX_DECIMALS
+
+
+def float_decimals(spec: Float, step: float) -> int:
+    """Enough decimals for one digit finer than the step and for every declared number, exactly."""
+    finer = math.ceil(-math.log10(step)) + 1 if step > 0 else 3
+    declared = [v for v in (spec.min, spec.max, spec.soft_min, spec.soft_max, spec.default, spec.step)
+                if v is not None]
+    return min(MAX_DECIMALS, max(1, finer, *(exact_decimals(float(v)) for v in declared)))
 
 
 class NumberEditor(ParameterEditor):
-    """A slider with a spin box for a bounded Int or Float (a spin box alone when unbounded).
+    """A slider over the soft range with a spin box over the hard bounds for an Int or Float (a spin box
+    alone where the soft range is open on a side).
 
-    The slider moves in the declaration's steps (odd kernel sizes stay odd); a value typed into the spin box
-    is snapped to the nearest step before it is sent.
+    The slider moves in the declaration's steps (odd kernel sizes stay odd), coarsened where the soft range
+    has more than MAX_SLIDER_POSITIONS of them. A value typed into the spin box is sent as typed: only an
+    Int with an enforced step is moved to the nearest allowed value.
     """
 
     def __init__(self, spec: Int | Float, parent: QWidget | None = None) -> None:
         super().__init__(spec, parent)
         self.is_int = isinstance(spec, Int)
-        self.low = spec.min
-        self.high = spec.max
-        bounded = self.low is not None and self.high is not None
-        if spec.step:
-            self.step = float(spec.step)
-        elif self.is_int:
-            self.step = 1.0
-        elif bounded:
-            self.step = (self.high - self.low) / 1000 or 1.0
-        else:
-            self.step = 0.1
-        if bounded and (self.high - self.low) / self.step > MAX_SLIDER_POSITIONS:
-            self.step = (self.high - self.low) / MAX_SLIDER_POSITIONS
+        self.step = spin_step(spec)
+        self.decimals = 0 if self.is_int else float_decimals(spec, self.step)
         self.slider: QSlider | None = None
-        if bounded:
-            self.slider = QSlider(Qt.Orientation.Horizontal)
-            self.slider.setRange(0, round((self.high - self.low) / self.step))
-            self.slider.setSingleStep(1)
-            self.slider.setPageStep(max(1, self.slider.maximum() // 10))
-            self.slider.valueChanged.connect(self._slider_moved)
-            self.slider.sliderReleased.connect(self._slider_released)
-            self.layout().addWidget(self.slider, 1)
+        self.slider_low = self.slider_high = self.slider_step = self._origin = 0.0
+        self._first = self._inner = 0
+        self._make_slider(spec)
         self.throttle = Throttle(self._emit, parent=self)
         if self.is_int:
             spin: QSpinBox | QDoubleSpinBox = QSpinBox()
-            spin.setRange(int(self.low) if self.low is not None else -(2**31) + 1,
-                          int(self.high) if self.high is not None else 2**31 - 1)
+            spin.setRange(max(int(spec.min), -INT_LIMIT) if spec.min is not None else -INT_LIMIT,
+                          min(int(spec.max), INT_LIMIT) if spec.max is not None else INT_LIMIT)
             spin.setSingleStep(int(self.step))
         else:
             spin = QDoubleSpinBox()
-            spin.setDecimals(_decimals(float(spec.step) if spec.step else self.step))
-            spin.setRange(self.low if self.low is not None else -1e12, self.high if self.high is not None else 1e12)
+            spin.setDecimals(self.decimals)
+            spin.setRange(spec.min if spec.min is not None else -FLOAT_LIMIT,
+                          spec.max if spec.max is not None else FLOAT_LIMIT)
             spin.setSingleStep(self.step)
         spin.setKeyboardTracking(False)  # typing "120" sends 120, not 1, 12 and 120
         spin.setMinimumWidth(80)
@@ -152,22 +205,73 @@ class NumberEditor(ParameterEditor):
         self.spin = spin
         self.layout().addWidget(spin)
 
+    def _make_slider(self, spec: Int | Float) -> None:
+        """The slider's positions: the soft minimum, the multiples of the step strictly inside the soft range
+        (counted from the minimum for an Int with an enforced step, from zero otherwise, so they are round),
+        then the soft maximum."""
+        soft = spec.slider_range
+        if soft is None:
+            return
+        low, high = float(soft[0]), float(soft[1])
+        if self.is_int:
+            enforced = spec.enforced_step or 1
+            origin = float(spec.min if spec.min is not None and spec.enforced_step else 0)
+            if spec.enforced_step:  # the ends themselves must be allowed values
+                low = origin + math.ceil((low - origin) / enforced) * enforced
+                high = origin + math.floor((high - origin) / enforced) * enforced
+            step = float(enforced * max(1, math.ceil((high - low) / enforced / MAX_SLIDER_POSITIONS)))
+        else:
+            origin = 0.0
+            step = float(spec.step) if spec.step else nice_step((high - low) / FLOAT_SLIDER_POSITIONS)
+            if (high - low) / step > MAX_SLIDER_POSITIONS:
+                step = nice_step((high - low) / MAX_SLIDER_POSITIONS, up=True)
+        if high <= low:
+            return
+        first = math.floor((low - origin) / step + 1e-9) + 1  # the first multiple above the soft minimum
+        last = math.ceil((high - origin) / step - 1e-9) - 1  # the last one below the soft maximum
+        self._origin, self._first, self._inner = origin, first, max(0, last - first + 1)
+        self.slider_low, self.slider_high, self.slider_step = low, high, step
+        positions = self._inner + 1
+        self.slider = QSlider(Qt.Orientation.Horizontal)
+        self.slider.setRange(0, positions)
+        self.slider.setSingleStep(1)
+        self.slider.setPageStep(max(1, positions // 10))
+        self.slider.valueChanged.connect(self._slider_moved)
+        self.slider.sliderReleased.connect(self._slider_released)
+        self.layout().addWidget(self.slider, 1)
+
     # slider position <-> value
     def value_at(self, position: int) -> int | float:
-        value = (self.low or 0) + position * self.step
-        return round(value) if self.is_int else round(value, 9)
+        """The value at a slider position: the soft minimum, a multiple of the step, or the soft maximum."""
+        if position <= 0:
+            value = self.slider_low
+        elif position > self._inner:
+            value = self.slider_high
+        else:
+            value = self._origin + (self._first + position - 1) * self.slider_step
+        return round(value) if self.is_int else round(value, self.decimals)
 
     def position_of(self, value: float) -> int:
-        return round((value - (self.low or 0)) / self.step)
+        """The slider position nearest ``value``; one past the soft range pins the slider at that end."""
+        if self.slider is None:
+            return 0
+        guess = round((value - self._origin) / self.slider_step) - self._first + 1
+        candidates = {min(max(p, 0), self._inner + 1) for p in (guess - 1, guess, guess + 1)}
+        return min(sorted(candidates), key=lambda p: abs(self.value_at(p) - value))
 
     def snap(self, value: float) -> int | float:
-        """The nearest allowed value (Int steps count from the minimum, as the declaration does)."""
-        if self.is_int and self.step != 1:
-            base = self.low or 0
-            value = base + round((value - base) / self.step) * self.step
-            if self.high is not None and value > self.high:
-                value -= self.step
-        return round(value) if self.is_int else float(value)
+        """The value a typed number stands for: itself, or for an Int with an enforced step the nearest
+        allowed value (steps count from the minimum, as the declaration does)."""
+        if not self.is_int:
+            return float(value)
+        value = round(value)
+        step = self.spec.enforced_step
+        if step:
+            base = self.spec.min if self.spec.min is not None else 0
+            value = base + round((value - base) / step) * step
+            if self.spec.max is not None and value > self.spec.max:
+                value -= step
+        return int(value)
 
     def show_value(self, value: Any) -> None:
         with QSignalBlocker(self.spin):
@@ -208,10 +312,12 @@ class BoolEditor(ParameterEditor):
 
 
 class ChoiceEditor(ParameterEditor):
+    """A combo box of the choices this installation can serve (``spec.available_choices``)."""
+
     def __init__(self, spec: Choice, parent: QWidget | None = None) -> None:
         super().__init__(spec, parent)
         self.combo = QComboBox()
-        self.combo.addItems(list(spec.choices))
+        self.combo.addItems(list(spec.available_choices))
         self.combo.currentTextChanged.connect(self._emit)
         self.layout().addWidget(self.combo, 1)
 

@@ -15,28 +15,19 @@ from typing import Any
 from PySide6.QtCore import QObject, QSettings, Signal
 from PySide6.QtWidgets import QFileDialog, QWidget
 
-from objrec_core import ParameterFileError, ParameterStorage, RecognitionSystem
-from objrec_core.storage import load_mapping
+from objrec_core import Opened, ParameterFileError, ParameterStorage, RecognitionSystem
 
 FILE_FILTER = "Parameter files (*.yaml *.yml);;All files (*)"
 LAST_FOLDER_KEY = "files/last_folder"
 
 
-def _pipeline_of(document: Any) -> list[tuple[Any, Any]] | None:
-    pipeline = document.get("pipeline") if isinstance(document, dict) else None
-    if not isinstance(pipeline, list):
-        return None
-    entries = []
-    for entry in pipeline:
-        if not isinstance(entry, dict):
-            return None
-        entries.append((entry.get("type"), entry.get("id", entry.get("type"))))
-    return entries
-
-
 class ParameterFiles(QObject):
     """The current file's path and the three File actions. ``exclusive`` is entered around every load and
-    save, so the processing thread never sees half a loaded file."""
+    save, so the processing thread never sees half a loaded file.
+
+    ``origin`` names the shipped file a system was started from (``hsv_demo.yaml``): such a system is
+    untitled, so Save asks where (suggesting that name) instead of overwriting the shipped file.
+    """
 
     message = Signal(str)
     pathChanged = Signal(str)  # noqa: N815 - Qt's signal naming
@@ -56,6 +47,7 @@ class ParameterFiles(QObject):
         self.window = parent
         self.exclusive = exclusive
         self.path: Path | None = None
+        self.origin: str | None = None
 
     # -- the folder dialogs start in ------------------------------------------------------------------------
     def last_folder(self) -> str:
@@ -68,7 +60,15 @@ class ParameterFiles(QObject):
 
     def set_path(self, path: Path | None) -> None:
         self.path = path
+        if path is not None:
+            self.origin = None
         self.pathChanged.emit(str(path) if path else "")
+
+    def set_origin(self, name: str) -> None:
+        """The system on screen was started from the shipped file ``name``: untitled until saved."""
+        self.path = None
+        self.origin = name
+        self.pathChanged.emit("")
 
     # -- the actions --------------------------------------------------------------------------------------
     def open(self, path: str | Path | None = None) -> bool:
@@ -84,18 +84,15 @@ class ParameterFiles(QObject):
     def load(self, path: Path) -> bool:
         try:
             with self.exclusive():
-                same_pipeline = _pipeline_of(load_mapping(path)) == [(m.type_name, m.id) for m in self.system.modules]
-                if same_pipeline:
-                    self.storage.load_parameters(path)
-                else:
-                    self.storage.load_system(path)
+                opened = self.storage.open(path)
         except ParameterFileError as exc:
             self.message.emit(f"Not opened: {exc}")
             return False
         self.remember_folder(path)
         self.set_path(path)
         modules = ", ".join(m.id for m in self.system.modules)
-        self.message.emit(f"Opened {path} ({self.system.kind}: {modules})")
+        how = "values loaded into the modules on screen" if opened is Opened.KEPT else "a new pipeline"
+        self.message.emit(f"Opened {path} ({self.system.kind}: {modules}; {how})")
         self.opened.emit(str(path))
         return True
 
@@ -108,7 +105,7 @@ class ParameterFiles(QObject):
     def save_as(self, path: str | Path | None = None) -> bool:
         """Always asks where (unless given); adds .yaml when the name has no suffix."""
         if path is None:
-            start = str(self.path) if self.path else str(Path(self.last_folder()) / "objrec.yaml")
+            start = str(self.path) if self.path else str(Path(self.last_folder()) / (self.origin or "objrec.yaml"))
             chosen, _ = QFileDialog.getSaveFileName(self.window, "Save the parameter file as", start, FILE_FILTER)
             if not chosen:
                 return False

@@ -9,11 +9,27 @@ from collections.abc import Callable
 from PySide6.QtCore import Signal
 from PySide6.QtWidgets import QMenu, QWidget
 
-from objrec_core import Detector, Parametrizable, PipelineError, RecognitionSystem, module_types
+from objrec_core import (
+    Detector,
+    Parametrizable,
+    PipelineError,
+    RecognitionSystem,
+    UnknownModuleError,
+    get_kind,
+    module_types,
+)
 
 log = logging.getLogger(__name__)
 
-KIND_TITLES = {"2d": "Add 2D module (images)", "3d": "Add 3D module (point clouds)"}
+
+def submenu_title(kind: str) -> str:
+    """``Add 2d module (images)``: the kind's name and what its data is called."""
+    if kind == "any":
+        return "Add module (any data)"
+    try:
+        return f"Add {kind} module ({get_kind(kind).title})"
+    except UnknownModuleError:
+        return f"Add {kind} module"
 
 
 def _role(klass: type[Parametrizable]) -> str:
@@ -23,7 +39,7 @@ def _role(klass: type[Parametrizable]) -> str:
 class PipelineMenu(QMenu):
     """Rebuilt each time it opens, from the registry and the current pipeline.
 
-    ``message`` reports what was done, or why not (mixing 2D and 3D modules is refused by the pipeline).
+    ``message`` reports what was done, or why not (mixing data kinds is refused by the pipeline).
     """
 
     message = Signal(str)
@@ -49,7 +65,7 @@ class PipelineMenu(QMenu):
         for klass in self.module_types().values():
             by_kind.setdefault(klass.kind or "any", []).append(klass)
         for module_kind in sorted(by_kind):
-            submenu = self.addMenu(KIND_TITLES.get(module_kind, f"Add {module_kind} module"))
+            submenu = self.addMenu(submenu_title(module_kind))
             submenu.setEnabled(kind is None or module_kind in (kind, "any"))
             if not submenu.isEnabled():
                 submenu.setToolTip(f"the pipeline holds {kind} modules; a pipeline cannot mix kinds")

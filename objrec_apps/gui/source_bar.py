@@ -1,4 +1,5 @@
-"""Source controls: choose the demo, a camera, a file or a folder; pause, resume, single step; fps."""
+"""Source controls: choose the demo, a camera, a file, a folder or any source spec; pause, resume, single
+step; fps. The file dialog offers what the installed source types of the pipeline's kind read."""
 
 from __future__ import annotations
 
@@ -7,9 +8,19 @@ from collections.abc import Callable
 
 from PySide6.QtCore import Signal
 from PySide6.QtGui import QAction, QKeySequence
-from PySide6.QtWidgets import QComboBox, QFileDialog, QLabel, QPushButton, QSpinBox, QToolBar, QWidget
+from PySide6.QtWidgets import QComboBox, QFileDialog, QLabel, QLineEdit, QPushButton, QSpinBox, QToolBar, QWidget
 
-KINDS = ("demo", "camera", "file", "folder")
+from objrec_core import source_types, source_usage
+
+KINDS = ("demo", "camera", "file", "folder", "spec")
+
+
+def file_filter(kind: str | None) -> str:
+    """The open dialog's filter: the extensions the source types of ``kind`` (None: of every kind) read."""
+    extensions = sorted({e for t in source_types(kind) for e in t.extensions})
+    patterns = " ".join(f"*{e}" for e in extensions)
+    what = f"Files {kind} sources read" if kind else "Files the installed sources read"
+    return f"{what} ({patterns});;All files (*)" if patterns else "All files (*)"
 
 
 class FrameRate:
@@ -32,23 +43,26 @@ class FrameRate:
 
 
 class SourceBar(QToolBar):
-    """Emits ``sourceRequested(spec)`` with a spec every kind plug-in accepts (``demo``, ``camera:N``,
-    a path); the window opens it. ``last_folder`` gives where file dialogs start."""
+    """Emits ``sourceRequested(spec)`` with a source spec (``demo``, ``camera:N``, a path, or any spec typed
+    in); the window opens it. ``last_folder`` gives where file dialogs start, ``kind`` the pipeline's data
+    kind (None while it has none)."""
 
     sourceRequested = Signal(str)  # noqa: N815 - Qt's signal naming
     pauseToggled = Signal(bool)  # noqa: N815 - Qt's signal naming
     stepRequested = Signal()  # noqa: N815 - Qt's signal naming
     folderUsed = Signal(str)  # noqa: N815 - Qt's signal naming
 
-    def __init__(self, last_folder: Callable[[], str], parent: QWidget | None = None) -> None:
+    def __init__(self, last_folder: Callable[[], str], parent: QWidget | None = None,
+                 kind: Callable[[], str | None] = lambda: None) -> None:
         super().__init__("Source", parent)
         self.setObjectName("source_bar")
         self.last_folder = last_folder
+        self.pipeline_kind = kind
         self.addWidget(QLabel(" Source "))
         self.kind = QComboBox()
         self.kind.addItems(list(KINDS))
-        self.kind.setToolTip("demo: the built-in synthetic scene; camera: a camera by number; file: an image, "
-                             "video or cloud file; folder: a folder of images or clouds")
+        self.kind.setToolTip("demo: the built-in synthetic scene; camera: a camera by number; file: a file a "
+                             "source reads; folder: a folder of them; spec: any source spec, typed in")
         self.kind.currentTextChanged.connect(self._kind_changed)
         self.addWidget(self.kind)
         self.camera_number = QSpinBox()
@@ -56,6 +70,12 @@ class SourceBar(QToolBar):
         self.camera_number.setPrefix("camera ")
         self.camera_action = self.addWidget(self.camera_number)
         self.camera_action.setVisible(False)
+        self.spec_edit = QLineEdit()
+        self.spec_edit.setPlaceholderText("demo:seed=3 · rgbd:color.png,depth.png · …")
+        self.spec_edit.setMinimumWidth(220)
+        self.spec_edit.returnPressed.connect(self.request)
+        self.spec_action = self.addWidget(self.spec_edit)
+        self.spec_action.setVisible(False)
         self.open_button = QPushButton("Open")
         self.open_button.setToolTip("Open the chosen source")
         self.open_button.clicked.connect(self.request)
@@ -83,6 +103,9 @@ class SourceBar(QToolBar):
 
     def _kind_changed(self, kind: str) -> None:
         self.camera_action.setVisible(kind == "camera")
+        self.spec_action.setVisible(kind == "spec")
+        if kind == "spec":
+            self.spec_edit.setToolTip(f"Accepted: {source_usage(self.pipeline_kind())}")
         self.open_button.setText("Open…" if kind in ("file", "folder") else "Open")
 
     def request(self) -> None:
@@ -92,14 +115,13 @@ class SourceBar(QToolBar):
             spec = "demo"
         elif kind == "camera":
             spec = f"camera:{self.camera_number.value()}"
+        elif kind == "spec":
+            spec = self.spec_edit.text().strip()
         elif kind == "file":
-            spec, _ = QFileDialog.getOpenFileName(
-                self, "Open an image, video or cloud file", self.last_folder(),
-                "Images, videos and clouds (*.png *.jpg *.jpeg *.bmp *.tif *.tiff *.ppm *.pgm *.webp *.avi *.mp4 "
-                "*.mkv *.mov *.pcd *.ply);;All files (*)",
-            )
+            spec, _ = QFileDialog.getOpenFileName(self, "Open a source file", self.last_folder(),
+                                                  file_filter(self.pipeline_kind()))
         else:
-            spec = QFileDialog.getExistingDirectory(self, "Open a folder of images or clouds", self.last_folder())
+            spec = QFileDialog.getExistingDirectory(self, "Open a folder of source files", self.last_folder())
         if spec:
             if kind in ("file", "folder"):
                 self.folderUsed.emit(spec)
@@ -117,7 +139,14 @@ class SourceBar(QToolBar):
             self.pause_action.blockSignals(False)
 
     def set_source_name(self, name: str, ended: bool = False) -> None:
+        """Show the open source's own name (``demo:seed=3``, a file's path)."""
         self.name_label.setText(f" {name} (ended) " if ended else f" {name} ")
+        self.name_label.setToolTip(name)
+
+    def set_waiting(self, spec: str) -> None:
+        """A spec of several kinds waits for the pipeline to get a kind."""
+        self.name_label.setText(f" {spec} (waiting for a pipeline) ")
+        self.name_label.setToolTip(f"{spec} is a source of several data kinds; the pipeline's kind decides which")
 
     @staticmethod
     def _rates_text(shown_fps: float, processing_ms: float, dropped: int) -> str:

@@ -1,8 +1,13 @@
-"""Every stage of a 2D pipeline on screen, not only the last: the original with the detected polygons,
-each filter's output and each detector's debug view, as tabs or as a grid (the user's choice)."""
+"""Every stage of a pipeline on screen, not only the last: the original with the detections, each filter's
+output and each detector's debug view, as tabs or as a grid (the user's choice).
+
+The pictures come from the pipeline's data kind (``kind.annotate``, ``kind.preview``), so a kind with
+neither images nor clouds shows its stages all the same; kinds whose views show points use the 3D page.
+"""
 
 from __future__ import annotations
 
+import logging
 import math
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
@@ -12,13 +17,18 @@ import numpy as np
 from PySide6.QtCore import QPointF, Qt, Signal
 from PySide6.QtWidgets import QFrame, QGridLayout, QLabel, QStackedLayout, QTabWidget, QVBoxLayout, QWidget
 
-from objrec_core import Frame, StageResults
+from objrec_core import Frame, Kind, StageResults
 
 from .images import FAST_DISPLAY, describe_pixel, display_buffer, fit_size
 from .interactive_image import InteractiveImage
 
+log = logging.getLogger(__name__)
+
 MODES = ("tabs", "grid")
-Annotate = Callable[[Frame, Any], np.ndarray]
+NO_FRAME = "No frame yet: choose a source above."
+
+#: Stages whose picture failed, each reported once (a view refreshes at camera rate).
+_reported: set[tuple[str, str]] = set()
 
 
 @dataclass
@@ -31,30 +41,44 @@ class StageImage:
     display: np.ndarray | None = None  # the image scaled for its view, where the view's size was known
 
 
-class _Objects:
-    """The minimal array-like ``annotate`` accepts for a detector's own objects."""
-
-    def __init__(self, objects: list[Any]) -> None:
-        self.objects = objects
-
-
 def _is_image(value: Any) -> bool:
+    """A detector's debug view is a picture (H x W or H x W x 3/4 array) whatever the data kind."""
     return isinstance(value, np.ndarray) and value.ndim in (2, 3) and value.size > 0
 
 
+def _raw(data: Any, shown: np.ndarray) -> np.ndarray | None:
+    """``data`` when it is itself a picture the size of ``shown`` (its pixels can be read out), else None."""
+    return data if _is_image(data) and data.shape[:2] == shown.shape[:2] else None
+
+
+def _picture(key: str, draw: Callable[[], Any]) -> np.ndarray | None:
+    """``draw()``, or None (reported once per stage and error) when the kind cannot picture the data."""
+    try:
+        picture = draw()
+    except Exception as exc:  # a filter whose output its kind cannot show must not blank the other stages
+        if (key, type(exc).__name__) not in _reported:
+            _reported.add((key, type(exc).__name__))
+            log.warning("stage %s cannot be shown: %s: %s", key, type(exc).__name__, exc)
+        return None
+    return picture if _is_image(picture) else None
+
+
 def stage_images(
-    results: StageResults, annotate: Annotate, sizes: Mapping[str, tuple[int, int]] | None = None
+    results: StageResults, kind: Kind, sizes: Mapping[str, tuple[int, int]] | None = None
 ) -> list[StageImage]:
-    """The pictures for one frame, in pipeline order; each scaled for display where ``sizes`` (view key ->
-    widget width and height) gives its view's size."""
+    """The pictures for one frame, in pipeline order, drawn by the data kind; each scaled for display where
+    ``sizes`` (view key -> widget width and height) gives its view's size."""
     images = []
     for stage in results.stages:
         label = stage.id if stage.id == stage.type_name else f"{stage.id} ({stage.type_name})"
         if stage.role == "input":
-            images.append(StageImage("input", "original + detections", annotate(results.frame, results.objects)))
+            picture = _picture("input", lambda: kind.annotate(results.frame, results.objects))
+            if picture is not None:
+                images.append(StageImage("input", "original + detections", picture))
         elif stage.role == "filter":
-            if _is_image(stage.output):
-                images.append(StageImage(stage.id, label, stage.output))
+            picture = _picture(stage.id, lambda output=stage.output: kind.preview(output))
+            if picture is not None:
+                images.append(StageImage(stage.id, label, picture))
         else:
             debug = stage.debug
             views = debug if isinstance(debug, dict) else {"debug": debug} if debug is not None else {}
@@ -63,9 +87,11 @@ def stage_images(
                 if _is_image(view):
                     images.append(StageImage(f"{stage.id}:{name}", f"{label} {name}", view))
                     shown = True
-            if not shown and _is_image(stage.output):
-                picture = annotate(Frame(stage.output), _Objects(stage.objects))
-                images.append(StageImage(stage.id, f"{label}: its input + detections", picture))
+            if not shown:
+                found = type(results.objects)(header=results.objects.header, objects=list(stage.objects))
+                picture = _picture(stage.id, lambda s=stage, a=found: kind.annotate(Frame(s.output), a))
+                if picture is not None:
+                    images.append(StageImage(stage.id, f"{label}: its input + detections", picture))
     for item in images:
         size = sizes.get(item.key) if sizes else None
         if size is not None:
@@ -89,16 +115,15 @@ class _Cell(QFrame):
 
 
 class StageViews(QWidget):
-    """The 2D stage pictures. ``areaSelected(rect, results)`` comes from any view showing the frame at its
-    own size; ``hovered(text)`` describes the pixel under the mouse (coordinates, BGR and HSV)."""
+    """The stage pictures. ``areaSelected(rect, results)`` comes from any view showing a picture the size of
+    the original's; ``hovered(text)`` describes the pixel under the mouse (coordinates, BGR and HSV)."""
 
     areaSelected = Signal(object, object)  # noqa: N815 - Qt's signal naming
     hovered = Signal(str)
     modeChanged = Signal(str)  # noqa: N815 - Qt's signal naming
 
-    def __init__(self, annotate: Annotate, mode: str = "tabs", parent: QWidget | None = None) -> None:
+    def __init__(self, mode: str = "tabs", parent: QWidget | None = None) -> None:
         super().__init__(parent)
-        self.annotate = annotate
         self._mode = mode if mode in MODES else "tabs"
         self._columns = 0
         self._cells: dict[str, _Cell] = {}
@@ -114,8 +139,9 @@ class StageViews(QWidget):
         self.stack = QStackedLayout(self)
         self.stack.addWidget(self.tabs)
         self.stack.addWidget(self.grid_page)
-        self.placeholder = QLabel("No frame yet: choose a source above.")
+        self.placeholder = QLabel(NO_FRAME)
         self.placeholder.setAlignment(Qt.AlignmentFlag.AlignCenter)
+        self.placeholder.setWordWrap(True)
         self.stack.addWidget(self.placeholder)
         self.stack.setCurrentWidget(self.placeholder)
 
@@ -135,14 +161,15 @@ class StageViews(QWidget):
     def results(self) -> StageResults | None:
         return self._results
 
-    def show_results(self, results: StageResults, images: list[StageImage] | None = None) -> None:
+    def show_results(self, results: StageResults, kind: Kind, images: list[StageImage] | None = None) -> None:
         """Show a frame's stages; ``images`` when already drawn (by the worker thread)."""
         if images is None:
-            images = stage_images(results, self.annotate)
+            images = stage_images(results, kind)
         keys = [i.key for i in images]
         if keys != list(self._cells):
             self._rebuild(images)
-        frame_shape = np.shape(results.frame.data)[:2]
+        # Selections are in the original's pixels: views of another size (a side-by-side debug view) take none.
+        frame_shape = next((i.image.shape[:2] for i in images if i.key == "input"), None)
         retitled = False
         aspects = [item.image.shape[1] / max(item.image.shape[0], 1) for item in images]
         if [cell.aspect for cell in self._cells.values()] != aspects:
@@ -167,6 +194,11 @@ class StageViews(QWidget):
     def clear(self) -> None:
         self._rebuild([])
         self._results = None
+        self.placeholder.setText(NO_FRAME)
+
+    def set_placeholder(self, text: str) -> None:
+        """What the page says while it has no frame (why none comes, what to do)."""
+        self.placeholder.setText(text)
 
     def _rebuild(self, images: list[StageImage]) -> None:
         current = self.tabs.tabText(self.tabs.currentIndex()) if self.tabs.count() else ""
@@ -258,12 +290,18 @@ class StageViews(QWidget):
             return
         x, y = int(point.x()), int(point.y())
         shown = cell.view.image()
-        original = np.asarray(results.frame.data)
         text = f"x {x}, y {y}"
-        if shown is not None and shown.shape[:2] == original.shape[:2]:
+        if shown is None:
+            self.hovered.emit(text)
+            return
+        # The data's own values where the frame, or the stage's output, is a picture the view's size (a mask
+        # reads "value 255", not its preview's BGR); else the picture's.
+        original = _raw(results.frame.data, shown)
+        output = _raw(next((s.output for s in results.stages if s.id == key and s.role == "filter"), None), shown)
+        if original is not None:
             text += f"   {describe_pixel(original, x, y)}"
             if key != "input":
-                text += f"   {key}: {describe_pixel(shown, x, y)}"
-        elif shown is not None:
-            text += f"   {describe_pixel(shown, x, y)}"
+                text += f"   {key}: {describe_pixel(output if output is not None else shown, x, y)}"
+        else:
+            text += f"   {describe_pixel(output if output is not None else shown, x, y)}"
         self.hovered.emit(text)

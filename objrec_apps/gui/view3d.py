@@ -1,7 +1,9 @@
-"""The 3D page of the window: layer toggles, the cloud view and the list of detections."""
+"""The 3D page of the window, for data kinds whose views show points (``Kind.has_points``): layer toggles,
+the cloud view and the list of detections. Points and boxes come from the kind (``points``, ``outlines``)."""
 
 from __future__ import annotations
 
+import logging
 from collections.abc import Sequence
 from typing import Any
 
@@ -21,32 +23,50 @@ from PySide6.QtWidgets import (
     QWidget,
 )
 
-from objrec_core import StageResults
+from objrec_core import DetectedObjectArray, Kind, Outline, StageResults
 
 from .cloud_render import CloudScene, layer_colour
-from .cloud_view import CloudView, box_geometry
+from .cloud_view import CloudView, box_frame
+
+log = logging.getLogger(__name__)
 
 COLUMNS = ("#", "name", "shape", "radius (m)", "x", "y", "z", "width × height × depth (m)", "inliers")
 
 
-def cloud_layers(results: StageResults) -> list[tuple[str, Any]]:
-    """The layers to draw: the original cloud, then every filter's output, named as the stages are."""
+def cloud_layers(results: StageResults, kind: Kind) -> list[tuple[str, Any]]:
+    """The layers to draw, as the kind's N x 3 points: the original, then every filter's output, named as the
+    stages are. An output the kind has no points for is left out (and logged)."""
     layers = []
     for stage in results.stages:
-        if stage.role == "input":
-            layers.append(("original", stage.output))
-        elif stage.role == "filter":
-            layers.append((stage.id, stage.output))
+        if stage.role not in ("input", "filter"):
+            continue
+        try:
+            points = kind.points(stage.output)
+        except Exception as exc:  # a filter output of another kind: the other layers still show
+            log.debug("stage %s has no points to show: %s", stage.id, exc)
+            continue
+        if points is not None:
+            layers.append(("original" if stage.role == "input" else stage.id, points))
     return layers
 
 
-def prepare_scene(results: StageResults) -> CloudScene:
+def prepare_scene(results: StageResults, kind: Kind) -> CloudScene:
     """Done in the processing thread, so the GUI thread only renders."""
-    return CloudScene.from_layers(cloud_layers(results))
+    return CloudScene.from_layers(cloud_layers(results, kind))
+
+
+def object_outlines(kind: Kind, objects: DetectedObjectArray) -> list[Outline | None]:
+    """Each detected object's outline from the kind, in the objects' order (None where it gives none)."""
+    found: list[Outline | None] = []
+    for obj in objects.objects:
+        one = kind.outlines(type(objects)(header=objects.header, objects=[obj]))
+        found.append(one[0] if one else None)
+    return found
 
 
 class DetectionsTable(QTableWidget):
-    """One row per detection: shape, radius and position, as the seed's 3D definer listed them."""
+    """One row per detection: its name, the shape, radius and inliers where its message has them, and the
+    centre and sides of its box outline."""
 
     def __init__(self, parent: QWidget | None = None) -> None:
         super().__init__(0, len(COLUMNS), parent)
@@ -57,10 +77,10 @@ class DetectionsTable(QTableWidget):
         self.horizontalHeader().setSectionResizeMode(QHeaderView.ResizeMode.ResizeToContents)
         self.horizontalHeader().setStretchLastSection(True)
 
-    def show_objects(self, objects: Sequence[Any]) -> None:
+    def show_objects(self, objects: Sequence[Any], outlines: Sequence[Outline | None]) -> None:
         self.setRowCount(len(objects))
-        for row, obj in enumerate(objects):
-            geometry = box_geometry(obj)
+        for row, (obj, outline) in enumerate(zip(objects, outlines, strict=True)):
+            geometry = box_frame(outline.box) if outline is not None and outline.box is not None else None
             centre, sides = (geometry[0], geometry[2]) if geometry else ((float("nan"),) * 3, (float("nan"),) * 3)
             radius = getattr(obj, "radius", None)
             cells = [
@@ -113,17 +133,19 @@ class View3D(QWidget):
         layout.addLayout(controls)
         layout.addWidget(splitter, 1)
 
-    def show_results(self, results: StageResults, scene: CloudScene | None = None) -> None:
-        scene = scene if scene is not None else prepare_scene(results)
+    def show_results(self, results: StageResults, kind: Kind, scene: CloudScene | None = None) -> None:
+        """Show a frame of data ``kind``; ``scene`` when already merged (by the worker thread)."""
+        scene = scene if scene is not None else prepare_scene(results, kind)
         self._sync_layers(scene.names)
         objects = list(results.objects.objects)
-        self.cloud_view.set_scene(scene, objects)
-        self.table.show_objects(objects)
+        outlines = object_outlines(kind, results.objects)
+        self.cloud_view.set_scene(scene, outlines)
+        self.table.show_objects(objects, outlines)
         self.summary.setText(f"{len(objects)} detected · {results.seconds * 1000:.0f} ms")
 
     def clear(self) -> None:
         self.cloud_view.set_scene(CloudScene(), [])
-        self.table.show_objects([])
+        self.table.show_objects([], [])
         self.summary.setText("")
 
     def _sync_layers(self, names: list[str]) -> None:

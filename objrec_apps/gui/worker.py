@@ -4,8 +4,9 @@ The worker is the director's ``StageView``: every result goes into a one-slot ma
 overwrites, and the GUI is told with at most one queued signal at a time. A GUI that cannot keep up therefore
 skips frames instead of queueing them, and never freezes at camera rate.
 
-Parameter changes reach the worker through the observer (``reprocess``): the frame last read is processed
-again at once, so the user sees the effect of every change without waiting for the next frame, and also
+Changes reach the worker through the observer (``reprocess``): after any change that can alter the
+result (a parameter, a module's state or object name, the pipeline) the frame last read is processed again
+at once, so the user sees the effect of every change without waiting for the next frame, and also
 while paused or after a file or image source has ended.
 """
 
@@ -14,13 +15,13 @@ from __future__ import annotations
 import logging
 import threading
 import time
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
 from typing import Any
 
 from PySide6.QtCore import QObject, Signal
 
-from objrec_core import DefinitionDirector, Frame, FrameSource, SourceError, StageResults, kind_plugin
+from objrec_core import Change, DefinitionDirector, Frame, FrameSource, SourceError, StageResults, open_source
 
 log = logging.getLogger(__name__)
 
@@ -35,14 +36,19 @@ class Shown:
     prepared: Any = None  # what the window's prepare hook made of it in the worker thread
 
 
+#: Changes that cannot alter what the pipeline finds: no reprocessing for them.
+UNSEEN_CHANGES = frozenset({"description", "file"})
+
+
 class _Watcher:
     """Observes the system and its modules for the worker (from any thread)."""
 
     def __init__(self, worker: ProcessingWorker) -> None:
         self.worker = worker
 
-    def update(self, subject: Any) -> None:
-        self.worker.reprocess()
+    def update(self, subject: Any, changes: Sequence[Change]) -> None:
+        if not changes or any(c.name not in UNSEEN_CHANGES for c in changes):
+            self.worker.reprocess()
 
 
 class ProcessingWorker(QObject):
@@ -53,7 +59,7 @@ class ProcessingWorker(QObject):
     """
 
     resultReady = Signal()  # noqa: N815 - Qt's signal naming
-    sourceOpened = Signal(str)  # noqa: N815 - Qt's signal naming
+    sourceOpened = Signal(str, str)  # noqa: N815 - Qt's signal naming: the source's name and data kind ("" unknown)
     sourceEnded = Signal(str)  # noqa: N815 - Qt's signal naming
     failed = Signal(str)
     pausedChanged = Signal(bool)  # noqa: N815 - Qt's signal naming
@@ -145,6 +151,11 @@ class ProcessingWorker(QObject):
         return self._source
 
     @property
+    def source_kind(self) -> str | None:
+        """The data kind of the source's frames, where known."""
+        return self._source_kind
+
+    @property
     def generation(self) -> int:
         """Counts parameter and pipeline changes; each Shown carries the count in force for it."""
         return self._generation
@@ -172,12 +183,13 @@ class ProcessingWorker(QObject):
             self._reprocess_pending = True
             self._cond.notify_all()
 
-    def open_source(self, spec: str, kind: str) -> None:
-        """Open a source by its spec (in the worker thread: a camera may take a while)."""
+    def open_source(self, spec: str, kind: str | None) -> None:
+        """Open a source by its spec for data ``kind`` (None: the kind whose source takes the spec), in the
+        worker thread: a camera may take a while."""
 
         def command() -> None:
             try:
-                source = kind_plugin(kind).open_source(spec)
+                source = open_source(spec, kind)
             except Exception as exc:  # SourceError, UnknownModuleError, a camera driver's own error
                 self.failed.emit(str(exc))
                 return
@@ -186,7 +198,7 @@ class ProcessingWorker(QObject):
         self._submit(command)
 
     def set_source(self, source: FrameSource, kind: str | None = None) -> None:
-        """Use an already opened source (of data ``kind``, where known)."""
+        """Use an already opened source (of data ``kind``; None: the kind its type declares, if any)."""
         self._submit(lambda: self._install(source, kind))
 
     def call(self, function: Callable[[], Any], done: Callable[[Any], None] | None = None) -> None:
@@ -252,11 +264,11 @@ class ProcessingWorker(QObject):
     def _install(self, source: FrameSource, kind: str | None = None) -> None:
         old = self._source
         self._source, self._iterator, self._ended, self._last_frame = source, iter(source), False, None
-        self._source_kind = kind
+        self._source_kind = kind or source.kind
         self._last_read = 0.0
         if old is not None and old is not source:
             old.close()
-        self.sourceOpened.emit(source.name)
+        self.sourceOpened.emit(source.name, self._source_kind or "")
 
     def _has_work(self) -> bool:
         if self._commands or self._step_pending:

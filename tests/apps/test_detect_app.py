@@ -44,7 +44,9 @@ def test_demo_prints_one_json_line_per_frame(project_root):
     [
         (["missing.yaml", "--source", "demo"], "missing.yaml: file not found"),
         (["params/hsv_demo.yaml", "--source", "nowhere.mp4"], "nowhere.mp4: no such file"),
-        (["params/hsv_demo.yaml", "--source", "camera:abc"], "camera:N"),
+        (["params/hsv_demo.yaml", "--source", "camera:abc"], "camera:abc: option index='abc' is invalid: expected int"),
+        (["params/hsv_demo.yaml", "--source", "demo:frames=-2"], "option frames='-2' is invalid: out of range"),
+        (["params/shape_demo.yaml", "--source", "camera:0"], "camera:0: a source of 2d data, but"),
         (["params/hsv_demo.yaml", "--source", "demo", "--max-frames", "0"], "--max-frames must be at least 1"),
     ],
 )
@@ -156,4 +158,19 @@ def test_a_source_that_yields_no_frame_is_a_user_mistake(project_root, tmp_path)
     assert result.returncode == 2, result.stderr
     assert "scan.pcd" in result.stderr and "Traceback" not in result.stderr
     result = run(["params/hsv_demo.yaml", "-s", str(broken)], project_root)
-    assert result.returncode == 2 and "needs a 3d parameter file" in result.stderr
+    assert result.returncode == 2 and "a source of 3d data, but this pipeline works on 2d data" in result.stderr
+
+
+def test_missing_parent_folders_of_outputs_are_made(project_root, tmp_path):
+    video, lines = tmp_path / "out" / "deeper" / "colour.avi", tmp_path / "jsonl" / "objects.jsonl"
+    result = run(["params/hsv_demo.yaml", "-s", "demo:frames=3", "--annotate", str(video), "-o", str(lines)],
+                 project_root)
+    assert result.returncode == 0, result.stderr
+    assert video.stat().st_size > 0 and len(lines.read_text().splitlines()) == 3
+
+
+def test_the_3d_demo_takes_the_same_spec_as_the_2d_one(project_root):
+    result = run(["params/shape_demo.yaml", "-s", "demo:seed=2,frames=2"], project_root, timeout=300)
+    assert result.returncode == 0, result.stderr
+    lines = [json.loads(line) for line in result.stdout.splitlines()]
+    assert len(lines) == 2 and all(line["objects"] for line in lines)

@@ -120,7 +120,7 @@ def test_running_without_a_detector_is_refused_and_bad_pipelines_too():
         RecognitionSystem([HSVFilter(id="x"), BinaryDetector(id="x")])
 
 
-def test_seed_style_wiring():
+def test_step_by_step_wiring():
     director = DetectionDirector()
     director.add_filter(HSVFilter(h_min=100, h_max=130, s_min=100))
     director.set_detector(BinaryDetector())
@@ -140,3 +140,53 @@ def test_max_frames_pulls_no_frame_beyond_the_limit():
     director = DetectionDirector(RecognitionSystem([BinaryDetector()]))
     assert len(list(director.run(camera(), max_frames=2))) == 2
     assert pulled == [0, 1]
+
+
+class CountingProgress:
+    def __init__(self):
+        self.events = []
+
+    def start(self, total):
+        self.events.append(("start", total))
+
+    def advance(self, frames=1):
+        self.events.append(("advance", frames))
+
+    def close(self):
+        self.events.append(("close",))
+
+
+class ListSource(list):
+    length = 5
+
+
+def test_the_run_loop_counts_reports_progress_and_feeds_annotation_sinks():
+    system = RecognitionSystem([HSVFilter(id="hsv", h_min=100, h_max=130, s_min=100), SelectingDetector(id="sel"),
+                                BinaryDetector(id="blobs")], object_name="sq")
+    pictures = []
+    director = DetectionDirector(system, keep_stages=True,
+                                 annotation_sinks=[lambda frame, array, stages: pictures.append(
+                                     (frame.index, len(array.objects), [s.id for s in stages], stages[2].debug.sum()))])
+    progress = CountingProgress()
+    frames = ListSource(Frame(picture(), index=i, frame_id="optical") for i in range(5))
+    stats = director.run_all(frames, max_frames=3, progress=progress)
+    assert (stats.frames, stats.objects, stats.frames_with_objects, stats.stopped_by) == (3, 3, 3, "max_frames")
+    assert stats.seconds > 0 and stats.rate == pytest.approx(3 / stats.seconds)
+    assert progress.events == [("start", 3), ("advance", 1), ("advance", 1), ("advance", 1), ("close",)]
+    assert pictures == [(i, 1, ["input", "hsv", "sel", "blobs"], 28) for i in range(3)]
+
+
+def test_the_run_loop_stops_between_frames_and_headers_keep_the_frame_s_frame_id():
+    import threading
+
+    stop = threading.Event()
+    received = []
+    director = DetectionDirector(RecognitionSystem([BinaryDetector()]), frame_id="camera",
+                                 sinks=[received.append, lambda _array: stop.set()])
+    frames = [Frame(picture(), frame_id="optical"), Frame(picture()), Frame(picture())]
+    stats = director.run_all(frames, stop=stop)
+    assert (stats.frames, stats.stopped_by) == (1, "stop")
+    assert received[0].header.frame_id == "optical"
+    director = DetectionDirector(RecognitionSystem([BinaryDetector()]), frame_id="camera", sinks=[received.append])
+    director.run_all(frames[1:2])
+    assert received[-1].header.frame_id == "camera"

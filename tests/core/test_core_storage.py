@@ -116,7 +116,7 @@ def test_loading_is_all_or_nothing(tmp_path):
         ),
         ("format_version: 1\nkind: 2d\nextra: 1\npipeline: []\n", "extra", "unknown key"),
         ("format_version: 7\nkind: 2d\npipeline: []\n", "format_version", "newer"),
-        ("format_version: 1\nkind: 4d\npipeline: []\n", "kind", "expected one of 2d, 3d"),
+        ("format_version: 1\nkind: 4d\npipeline: []\n", "kind", "expected one of 2d, 3d, found '4d'"),
         ("format_version: 1\nkind: 2d\npipeline: []\n", "pipeline", "empty"),
         ("kind: 2d\npipeline: []\n", "format_version", "missing"),
         (
@@ -250,7 +250,8 @@ def test_save_is_atomic_when_the_process_is_killed_halfway(tmp_path):
     child = textwrap.dedent(
         f"""
         import os, signal
-        from objrec_core import ParameterStorage, RecognitionSystem, storage
+        from objrec_core import ParameterStorage, RecognitionSystem
+        from strictio import atomic
         from objrec2d import HSVFilter, BinaryDetector
         system = RecognitionSystem([HSVFilter(id="hsv", h_min=1), BinaryDetector(id="blobs")], description="x" * 200000)
         real_fdopen = os.fdopen
@@ -262,7 +263,7 @@ def test_save_is_atomic_when_the_process_is_killed_halfway(tmp_path):
                 os.kill(os.getpid(), signal.SIGKILL)
             stream.write = half
             return stream
-        storage.os.fdopen = dying_fdopen
+        atomic.os.fdopen = dying_fdopen
         ParameterStorage(system).save_parameters({str(path)!r})
         """
     )

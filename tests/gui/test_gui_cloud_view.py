@@ -1,5 +1,6 @@
 """The 3D view, rendered offscreen by the NumPy point renderer: the cloud's pixels in their layer colours,
-the boxes and their coordinate frames, mouse interaction, the detection list, and a 3D pipeline live."""
+the boxes (the kind's outlines) and their coordinate frames, mouse interaction, the detection list, and a
+3D pipeline live."""
 
 from __future__ import annotations
 
@@ -11,7 +12,8 @@ from PySide6.QtCore import QPointF, Qt
 
 from objrec_apps.gui import CloudView, View3D
 from objrec_apps.gui.cloud_render import BACKGROUND, CloudScene, OrbitCamera, layer_colour, render
-from objrec_core import DetectedObjectArray, Frame, Stage, StageResults
+from objrec_apps.gui.cloud_view import box_frame
+from objrec_core import Frame, Stage, StageResults, get_kind
 
 objrec3d_messages = pytest.importorskip("objrec3d.messages")
 objrec3d_cloud = pytest.importorskip("objrec3d.cloud")
@@ -19,6 +21,7 @@ DetectedObject3D = objrec3d_messages.DetectedObject3D
 OrientedBox, Pose, Point, Quaternion = (objrec3d_messages.OrientedBox, objrec3d_messages.Pose,
                                         objrec3d_messages.Point, objrec3d_messages.Quaternion)
 PointCloud = objrec3d_cloud.PointCloud
+DetectedObject3DArray = objrec3d_messages.DetectedObject3DArray
 
 
 def organized_scene(width: int = 640, height: int = 480) -> PointCloud:
@@ -45,6 +48,11 @@ def box_object(centre=(0.0, 0.0, 1.5), size=0.2) -> DetectedObject3D:
                             inliers=1234)
 
 
+def outlines(*objects: DetectedObject3D) -> list:
+    """The objects' box outlines, as the 3d kind gives them to views."""
+    return get_kind("3d").outlines(DetectedObject3DArray(objects=list(objects)))
+
+
 def colour_pixels(image: np.ndarray, colour: tuple[int, int, int]) -> np.ndarray:
     """Pixels that are ``colour`` darkened by the depth shading (any factor 0.4..1)."""
     rgb = image[..., :3].astype(np.float32)
@@ -64,7 +72,7 @@ def grab(view) -> np.ndarray:
 def test_layers_merge_into_one_point_set_with_owners():
     cloud = organized_scene()
     near = filtered(cloud, cloud.points[:, 2] < 1.8)
-    scene = CloudScene.from_layers([("original", cloud), ("near", near)])
+    scene = CloudScene.from_layers([("original", cloud.points), ("near", near.points)])
     valid = int(np.isfinite(cloud.points).all(axis=1).sum())
     assert scene.points.shape == (valid, 3)  # drawn once, recoloured, not twice
     assert scene.counts == [valid, int(np.isfinite(near.points).all(axis=1).sum())]
@@ -74,7 +82,7 @@ def test_layers_merge_into_one_point_set_with_owners():
 def test_the_renderer_draws_every_layer_in_its_colour_and_the_nearest_point_wins():
     cloud = organized_scene()
     near = filtered(cloud, cloud.points[:, 2] < 1.8)
-    scene = CloudScene.from_layers([("original", cloud), ("near", near)])
+    scene = CloudScene.from_layers([("original", cloud.points), ("near", near.points)])
     camera = OrbitCamera()
     camera.fit(scene.bounds(), 640 / 480)
     image = render(scene, camera, 640, 480, shade=False)
@@ -91,7 +99,7 @@ def test_the_renderer_draws_every_layer_in_its_colour_and_the_nearest_point_wins
 
 
 def test_a_307200_point_cloud_renders_fast_enough_to_turn_smoothly():
-    scene = CloudScene.from_layers([("original", organized_scene())])
+    scene = CloudScene.from_layers([("original", organized_scene().points)])
     camera = OrbitCamera()
     camera.fit(scene.bounds())
     times = []
@@ -111,7 +119,7 @@ def test_the_cloud_view_shows_the_cloud_and_the_boxes_offscreen(qtbot):
     qtbot.waitExposed(view)
     cloud = organized_scene()
     near = filtered(cloud, cloud.points[:, 2] < 1.8)
-    view.set_scene(CloudScene.from_layers([("original", cloud), ("near", near)]), [box_object()])
+    view.set_scene(CloudScene.from_layers([("original", cloud.points), ("near", near.points)]), outlines(box_object()))
     picture = grab(view)
     assert colour_pixels(picture, layer_colour(0)).sum() > 50_000
     assert colour_pixels(picture, layer_colour(1)).sum() > 5_000
@@ -131,7 +139,7 @@ def test_the_mouse_rotates_pans_zooms_and_double_click_resets(qtbot):
     qtbot.addWidget(view)
     view.resize(400, 300)
     view.show()
-    view.set_scene(CloudScene.from_layers([("original", organized_scene())]))
+    view.set_scene(CloudScene.from_layers([("original", organized_scene().points)]))
     fitted = (view.camera.yaw, view.camera.pitch, view.camera.distance, view.camera.target.copy())
     before = grab(view)
     qtbot.mousePress(view, Qt.MouseButton.LeftButton, pos=QPointF(200, 150).toPoint())
@@ -159,7 +167,7 @@ def test_the_3d_page_lists_the_detections(qtbot):
     near = filtered(cloud, cloud.points[:, 2] < 1.8)
     stages = [Stage("input", "input", "input", cloud), Stage("near", "DistanceFilter", "filter", near)]
     objects = [box_object((0.1, -0.2, 1.5), 0.08)]
-    page.show_results(StageResults(Frame(cloud), stages, DetectedObjectArray(objects=objects), 0.05))
+    page.show_results(StageResults(Frame(cloud), stages, DetectedObject3DArray(objects=objects), 0.05), get_kind("3d"))
     cells = [page.table.item(0, c).text() for c in range(page.table.columnCount())]
     assert cells == ["1", "thing", "sphere", "0.0400", "+0.100", "-0.200", "+1.500", "0.080 × 0.080 × 0.080", "1234"]
     assert [c.text() for c in page._layer_checks] == ["original", "near"]
@@ -167,18 +175,30 @@ def test_the_3d_page_lists_the_detections(qtbot):
     assert page.cloud_view.hidden == frozenset({1})
 
 
+def test_a_box_outline_gives_centre_axes_and_sides():
+    pose = Pose(Point(0.5, -0.25, 2.0), Quaternion(0.0, 0.0, np.sin(np.pi / 8), np.cos(np.pi / 8)))  # 45° about z
+    obj = DetectedObject3D("crate", OrientedBox(pose, 0.4, 0.2, 0.1))
+    (outline,) = outlines(obj)
+    centre, axes, sides = box_frame(outline.box)
+    assert centre == pytest.approx([0.5, -0.25, 2.0])
+    assert sides == pytest.approx([0.4, 0.2, 0.1])
+    half = np.sqrt(0.5)
+    assert axes == pytest.approx(np.array([[half, half, 0.0], [-half, half, 0.0], [0.0, 0.0, 1.0]]))
+    assert box_frame(np.full((8, 3), np.nan)) is None
+
+
 @pytest.mark.slow
 def test_the_shape_system_runs_live_in_the_window(make_gui, qtbot):
-    from objrec_apps.gui import build_preset
-    from objrec_core import kind_plugin
+    from objrec_apps.define import starting_system
+    from objrec_core import open_source
 
-    source = kind_plugin("3d").open_source("demo")
-    gui = make_gui(build_preset("shape"), source=source, wait=False, paused=True)
+    source = open_source("demo", "3d")
+    gui = make_gui(starting_system("shape"), source=source, wait=False, paused=True)
     with qtbot.waitSignal(gui.frameShown, timeout=30000) as signal:
         gui.worker.step()
     results = signal.args[0].results
     assert gui.central.currentWidget() is gui.view3d
-    assert [name for name in gui.view3d.cloud_view.scene.names] == ["original", "distance", "table"]
+    assert [name for name in gui.view3d.cloud_view.scene.names] == ["original", "DistanceFilter", "PlaneRemovalFilter"]
     cylinders = [o for o in results.objects.objects if o.shape == "cylinder"]
     assert cylinders and gui.view3d.table.rowCount() == len(results.objects.objects)
     assert gui.view3d.table.item(0, 2).text() == "cylinder"

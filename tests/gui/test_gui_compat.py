@@ -8,7 +8,7 @@ import sys
 import numpy as np
 from PySide6.QtCore import QObject, Signal
 
-from objrec_apps.gui import build_preset
+from objrec_apps.define import starting_system
 from objrec_apps.gui.compat import guard_none_refcount, singleton_leaks
 from objrec_apps.gui.images import display_buffer, fit_size
 
@@ -41,7 +41,7 @@ def test_display_buffers_are_scaled_bgrx_copies():
 
 
 def test_the_views_paint_frames_scaled_in_the_processing_thread(make_gui, qtbot):
-    gui = make_gui(build_preset("hsv"), view_mode="grid")
+    gui = make_gui(starting_system("hsv"), view_mode="grid")
     views = gui.stage_views.views
     qtbot.waitUntil(lambda: all(v._display is not None for v in views.values()), timeout=5000)
     for key, view in views.items():

@@ -11,7 +11,7 @@ import pytest
 import yaml
 from PySide6.QtWidgets import QFileDialog
 
-from objrec_apps.gui import build_preset
+from objrec_apps.define import starting_system
 from objrec_apps.gui.param_widgets import BoolEditor, ChoiceEditor, NumberEditor, TextEditor
 from objrec_core import ParameterStorage
 
@@ -44,7 +44,10 @@ def change_every_value_through_the_panels(gui) -> None:
             before = panel.module.get_parameters()[name]
             if isinstance(editor, NumberEditor):
                 if editor.slider is not None:
-                    editor.slider.setValue(max(1, editor.slider.maximum() // 3))
+                    position = max(1, editor.slider.maximum() // 3)
+                    if editor.value_at(position) == before:  # a third of the way may be the value already
+                        position += 1
+                    editor.slider.setValue(position)
                     editor.throttle.flush()
                 else:
                     editor.spin.setValue(editor.spin.value() + editor.spin.singleStep())
@@ -63,9 +66,9 @@ def values(system) -> dict[str, dict]:
     return {m.id: m.get_parameters() for m in system.modules}
 
 
-@pytest.mark.parametrize("preset", ["hsv", "feature", "shape"])
-def test_save_then_open_restores_every_value(make_gui, monkeypatch, tmp_path, preset):
-    gui = make_gui(build_preset(preset))
+@pytest.mark.parametrize("system", ["hsv", "feature", "shape"])
+def test_save_then_open_restores_every_value(make_gui, monkeypatch, tmp_path, system):
+    gui = make_gui(starting_system(system))
     modules = gui.system.modules
     change_every_value_through_the_panels(gui)
     expected = values(gui.system)
@@ -94,13 +97,13 @@ def test_save_then_open_restores_every_value(make_gui, monkeypatch, tmp_path, pr
                 assert editor.spin.value() == pytest.approx(expected[panel.module.id][name]), (panel.module.id, name)
                 shown += 1
     assert shown >= 3
-    if preset == "hsv":
+    if system == "hsv":
         assert gui.panels.panel("colour").editors["h_min"].slider.value() == expected["colour"]["h_min"]
     assert gui.statusBar().currentMessage().startswith(f"Opened {saved}")
 
 
 def test_save_overwrites_the_current_file_without_asking(make_gui, monkeypatch, tmp_path):
-    gui = make_gui(build_preset("hsv"))
+    gui = make_gui(starting_system("hsv"))
     path = tmp_path / "colour.yaml"
     patch_dialogs(monkeypatch, save_path=path)
     gui.save_action.trigger()  # no file yet: Save asks once
@@ -128,7 +131,7 @@ def test_save_overwrites_the_current_file_without_asking(make_gui, monkeypatch, 
     ],
 )
 def test_opening_a_broken_file_changes_nothing_and_says_why(make_gui, monkeypatch, tmp_path, text, expected):
-    gui = make_gui(build_preset("hsv"))
+    gui = make_gui(starting_system("hsv"))
     gui.system.module("colour").set_parameters(h_min=12)
     modules, before = gui.system.modules, values(gui.system)
     title = gui.windowTitle()
@@ -144,8 +147,8 @@ def test_opening_a_broken_file_changes_nothing_and_says_why(make_gui, monkeypatc
 
 
 def test_opening_another_pipeline_replaces_it_and_its_panels(make_gui, monkeypatch, tmp_path):
-    gui = make_gui(build_preset("hsv"))
-    other = build_preset("hsv")
+    gui = make_gui(starting_system("hsv"))
+    other = starting_system("hsv")
     other.remove_module("open")
     other.module("colour").set_parameters(h_min=100, h_max=130)
     path = tmp_path / "two.yaml"
@@ -162,8 +165,8 @@ def test_the_feature_target_survives_save_and_open(make_gui, monkeypatch, tmp_pa
     from objrec2d import DemoScene
     from objrec_core import Rect
 
-    gui = make_gui(build_preset("feature"), paused=True, wait=False)
-    detector = gui.system.module("features")
+    gui = make_gui(starting_system("feature"), paused=True, wait=False)
+    detector = gui.system.module("poster")
     scene = DemoScene()
     frame0, _ = scene.render(0)
     detector.process_area_selection(Rect(*scene.target.reference_rect), frame0)
@@ -178,19 +181,19 @@ def test_the_feature_target_survives_save_and_open(make_gui, monkeypatch, tmp_pa
     detector.reset_parameters()
     patch_dialogs(monkeypatch, open_path=path)
     gui.open_action.trigger()
-    restored = gui.system.module("features")
+    restored = gui.system.module("poster")
     assert restored.get_parameters() == expected
     assert restored.target is not None and restored.target.rect == target.rect
     assert np.array_equal(restored.target.image, target.image)
     assert len(restored.target) == len(target)
-    panel = gui.panels.panel("features")
+    panel = gui.panels.panel("poster")
     assert not panel.thumbnail.pixmap().isNull()
 
 
 def test_last_folder_and_layout_are_remembered(make_gui, monkeypatch, tmp_path, settings):
     folder = tmp_path / "parameter files"
     folder.mkdir()
-    gui = make_gui(build_preset("hsv"))
+    gui = make_gui(starting_system("hsv"))
     patch_dialogs(monkeypatch, save_path=folder / "a.yaml")
     gui.save_as_action.trigger()
     gui.set_view_mode("grid")
@@ -199,7 +202,7 @@ def test_last_folder_and_layout_are_remembered(make_gui, monkeypatch, tmp_path, 
     assert size != (1200, 800)
     gui.close()
 
-    again = make_gui(build_preset("hsv"), size=None)
+    again = make_gui(starting_system("hsv"), size=None)
     assert again.stage_views.mode == "grid" and again.mode_actions["grid"].isChecked()
     assert (again.width(), again.height()) == size
     calls = patch_dialogs(monkeypatch, open_path=folder / "a.yaml")

@@ -7,7 +7,7 @@ import yaml
 from PySide6.QtGui import QAction
 from PySide6.QtWidgets import QFileDialog
 
-from objrec_apps.gui import build_preset
+from objrec_apps.define import starting_system
 from objrec_core import build_system
 
 
@@ -20,7 +20,7 @@ def menu_action(menu, name: str) -> QAction:
 
 
 def test_the_pipeline_menu_adds_a_module_and_the_saved_file_holds_it(make_gui, monkeypatch, tmp_path, qtbot):
-    gui = make_gui(build_preset("hsv"))
+    gui = make_gui(starting_system("hsv"))
     menu = gui.pipeline_menu
     menu_action(menu, "add:MorphologyFilter").trigger()
     assert [m.id for m in gui.system.modules] == ["colour", "open", "MorphologyFilter", "blobs"]
@@ -44,7 +44,7 @@ def test_the_pipeline_menu_adds_a_module_and_the_saved_file_holds_it(make_gui, m
 
 
 def test_a_second_module_of_a_type_gets_its_own_id_and_detectors_go_last(make_gui):
-    gui = make_gui(build_preset("hsv"))
+    gui = make_gui(starting_system("hsv"))
     menu = gui.pipeline_menu
     menu_action(menu, "add:HSVFilter").trigger()
     menu_action(menu, "add:BinaryDetector").trigger()
@@ -52,7 +52,7 @@ def test_a_second_module_of_a_type_gets_its_own_id_and_detectors_go_last(make_gu
 
 
 def test_remove_and_reorder(make_gui, qtbot):
-    gui = make_gui(build_preset("hsv"))
+    gui = make_gui(starting_system("hsv"))
     menu = gui.pipeline_menu
     menu_action(menu, "down:colour").trigger()
     assert [m.id for m in gui.system.modules] == ["open", "colour", "blobs"]
@@ -65,13 +65,13 @@ def test_remove_and_reorder(make_gui, qtbot):
 
 
 def test_3d_modules_cannot_join_a_2d_pipeline(make_gui):
-    gui = make_gui(build_preset("hsv"))
+    gui = make_gui(starting_system("hsv"))
     menu = gui.pipeline_menu
     menu.populate()
     kinds = {a.text(): a.menu().isEnabled() for a in menu.actions() if a.menu() is not None}
-    assert kinds["Add 2D module (images)"] is True
-    if "Add 3D module (point clouds)" in kinds:
-        assert kinds["Add 3D module (point clouds)"] is False
+    assert kinds["Add 2d module (images)"] is True
+    if "Add 3d module (point clouds)" in kinds:
+        assert kinds["Add 3d module (point clouds)"] is False
     types = menu.module_types()
     three_d = [name for name, klass in types.items() if klass.kind == "3d"]
     if three_d:
@@ -83,6 +83,8 @@ def test_3d_modules_cannot_join_a_2d_pipeline(make_gui):
 def test_an_empty_window_builds_a_pipeline_from_the_menu(make_gui, qtbot):
     gui = make_gui(None, wait=False)
     assert gui.system.modules == () and gui.panels.empty_label.isVisibleTo(gui.panels)
+    assert gui.worker.source is None  # demo is a source of 2d and of 3d data: it waits for the pipeline's kind
+    assert "(waiting for a pipeline)" in gui.source_bar.name_label.text()
     menu = gui.pipeline_menu
     for name in ("add:HSVFilter", "add:BinaryDetector"):
         menu_action(menu, name).trigger()
@@ -90,12 +92,19 @@ def test_an_empty_window_builds_a_pipeline_from_the_menu(make_gui, qtbot):
     with qtbot.waitSignal(gui.frameShown, timeout=10000):
         pass
     qtbot.waitUntil(lambda: list(gui.stage_views.views) == ["input", "HSVFilter", "BinaryDetector"], timeout=5000)
+    assert gui.worker.source_kind == "2d" and gui.source_bar.name_label.text().strip() == "demo"
 
 
-def test_a_pipeline_that_becomes_3d_gets_the_3d_demo_and_view(make_gui, qtbot):
-    gui = make_gui(None, wait=False, paused=True)
+def test_a_pipeline_that_becomes_3d_gets_the_3d_demo_and_view(make_gui, qtbot, tmp_path):
+    import cv2
+
+    from objrec2d import DemoScene
+
+    image = tmp_path / "frame.png"
+    cv2.imwrite(str(image), DemoScene().render(0)[0])
+    gui = make_gui(None, source=str(image), wait=False, paused=True)  # only a 2d source reads a .png
     qtbot.waitUntil(lambda: gui.worker.source is not None, timeout=5000)
-    assert type(gui.worker.source).__module__.startswith("objrec2d")
+    assert type(gui.worker.source).__module__.startswith("objrec2d") and gui.worker.source_kind == "2d"
     menu = gui.pipeline_menu
     three_d = [name for name, klass in menu.module_types().items() if klass.kind == "3d"]
     if not three_d:
@@ -104,3 +113,4 @@ def test_a_pipeline_that_becomes_3d_gets_the_3d_demo_and_view(make_gui, qtbot):
     assert gui.system.kind == "3d" and gui.central.currentWidget() is gui.view3d
     qtbot.waitUntil(lambda: type(gui.worker.source).__module__.startswith("objrec3d"), timeout=10000)
     qtbot.waitUntil(lambda: gui.source_bar.name_label.text().strip() == "demo", timeout=5000)
+    assert gui.worker.source_kind == "3d"

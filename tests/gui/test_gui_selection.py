@@ -9,7 +9,8 @@ from PySide6.QtCore import QEvent, QPointF, Qt
 from PySide6.QtGui import QMouseEvent
 from PySide6.QtWidgets import QApplication
 
-from objrec_apps.gui import InteractiveImage, build_preset
+from objrec_apps.define import starting_system
+from objrec_apps.gui import InteractiveImage
 from objrec_core import Rect
 
 
@@ -104,7 +105,7 @@ def test_images_that_arrive_during_a_drag_wait_for_the_release(qtbot):
 
 
 def test_hovering_shows_coordinates_bgr_and_hsv(make_gui, qtbot):
-    gui = make_gui(build_preset("hsv"), paused=True, wait=False)
+    gui = make_gui(starting_system("hsv"), paused=True, wait=False)
     with qtbot.waitSignal(gui.frameShown, timeout=10000):
         gui.worker.step()
     view = gui.stage_views.view("input")
@@ -123,10 +124,12 @@ def test_hovering_shows_coordinates_bgr_and_hsv(make_gui, qtbot):
 
 def test_a_mouse_selection_becomes_the_target_found_in_the_next_frames(make_gui, qtbot):
     pytest.importorskip("objrec2d.feature_detector")
-    gui = make_gui(build_preset("feature"), paused=True, wait=False)
+    system = starting_system("feature")
+    detector = system.module("poster")
+    detector.clear_target()  # the shipped file holds a target: start without one
+    gui = make_gui(system, paused=True, wait=False)
     with qtbot.waitSignal(gui.frameShown, timeout=10000):
         gui.worker.step()  # frame 0, where the demo's poster faces the camera
-    detector = gui.system.module("features")
     results = gui.last_results
     assert results.frame.index == 0 and len(results.objects) == 0
     view = gui.stage_views.view("input")
@@ -136,7 +139,7 @@ def test_a_mouse_selection_becomes_the_target_found_in_the_next_frames(make_gui,
     drag(view, view.to_widget(QPointF(x, y)), view.to_widget(QPointF(x + w, y + h)))
     qtbot.waitUntil(lambda: detector.target is not None, timeout=5000)
     assert detector.target.rect == Rect(x, y, w, h)
-    qtbot.waitUntil(lambda: "taken by features" in gui.statusBar().currentMessage(), timeout=5000)
+    qtbot.waitUntil(lambda: "taken by poster" in gui.statusBar().currentMessage(), timeout=5000)
 
     found = []
 
@@ -161,19 +164,21 @@ def test_a_mouse_selection_becomes_the_target_found_in_the_next_frames(make_gui,
 
 def test_a_refused_selection_shows_the_reason(make_gui, qtbot):
     pytest.importorskip("objrec2d.feature_detector")
-    gui = make_gui(build_preset("feature"), paused=True, wait=False)
+    system = starting_system("feature")
+    system.module("poster").clear_target()
+    gui = make_gui(system, paused=True, wait=False)
     with qtbot.waitSignal(gui.frameShown, timeout=10000):
         gui.worker.step()
     view = gui.stage_views.view("input")
     # A corner of the demo's plain, noisy background: nothing to match.
     drag(view, view.to_widget(QPointF(150, 5)), view.to_widget(QPointF(165, 15)))
     qtbot.waitUntil(lambda: "refused" in gui.statusBar().currentMessage(), timeout=5000)
-    assert gui.system.module("features").target is None
-    assert "features refused the selection:" in gui.statusBar().currentMessage()
+    assert gui.system.module("poster").target is None
+    assert "poster refused the selection:" in gui.statusBar().currentMessage()
 
 
 def test_selections_reach_every_registered_callback(make_gui, qtbot):
-    gui = make_gui(build_preset("hsv"))
+    gui = make_gui(starting_system("hsv"))
     received = []
     gui.add_selection_callback(lambda rect, results: received.append((rect, results.frame.index)))
     view = gui.stage_views.view("input")

@@ -11,12 +11,12 @@ import numpy as np
 from PySide6.QtWidgets import QApplication
 
 from objrec2d import ImageFilter
-from objrec_apps.gui import build_preset
+from objrec_apps.define import starting_system
 from objrec_core import Bool, RecognitionSystem
 
 
 def test_a_busy_gui_skips_frames_instead_of_queueing_them(make_gui, qtbot):
-    gui = make_gui(build_preset("hsv"), fps_limit=None)
+    gui = make_gui(starting_system("hsv"), fps_limit=None)
     shown = []
     gui.frameShown.connect(shown.append)
     processed = gui.worker.processed
@@ -29,7 +29,7 @@ def test_a_busy_gui_skips_frames_instead_of_queueing_them(make_gui, qtbot):
 
 
 def test_a_parameter_change_while_paused_reprocesses_the_frame_on_screen(make_gui, qtbot):
-    gui = make_gui(build_preset("hsv"), paused=True, wait=False)
+    gui = make_gui(starting_system("hsv"), paused=True, wait=False)
     with qtbot.waitSignal(gui.frameShown, timeout=10000) as first:
         gui.worker.step()
     assert first.args[0].results.frame.index == 0 and len(first.args[0].results.objects) == 4
@@ -39,10 +39,15 @@ def test_a_parameter_change_while_paused_reprocesses_the_frame_on_screen(make_gu
     assert shown.results.frame.index == 0 and len(shown.results.objects) == 0
     assert shown.generation > first.args[0].generation
     assert gui.worker.paused
+    generation = gui.worker.generation
+    gui.system.description = "a new description"  # changes nothing the pipeline finds: no reprocessing
+    assert gui.worker.generation == generation
+    gui.system.object_name = "thing"  # the objects' name: reprocessed
+    assert gui.worker.generation == generation + 1
 
 
 def test_single_steps_take_one_frame_each(make_gui, qtbot):
-    gui = make_gui(build_preset("hsv"), paused=True, wait=False)
+    gui = make_gui(starting_system("hsv"), paused=True, wait=False)
     indexes = []
     for _ in range(3):
         with qtbot.waitSignal(gui.frameShown, timeout=10000) as signal:
@@ -54,7 +59,7 @@ def test_single_steps_take_one_frame_each(make_gui, qtbot):
 
 
 def test_a_change_while_running_shows_within_a_frame_or_two(make_gui, qtbot):
-    gui = make_gui(build_preset("hsv"))
+    gui = make_gui(starting_system("hsv"))
     module = gui.system.module("colour")
     delays = []
     for value in (130, 140, 150, 160, 170):
@@ -72,7 +77,7 @@ def test_an_image_file_ends_and_still_answers_parameter_changes(make_gui, qtbot,
     image, _ = DemoScene().render(0)
     path = tmp_path / "frame.png"
     cv2.imwrite(str(path), image)
-    gui = make_gui(build_preset("hsv"), source=str(path))
+    gui = make_gui(starting_system("hsv"), source=str(path))
     qtbot.waitUntil(lambda: "(ended)" in gui.source_bar.name_label.text(), timeout=5000)
     with qtbot.waitSignal(gui.frameShown, timeout=5000) as signal:
         gui.system.module("blobs").set_parameters(min_contour_length=1000.0)
@@ -85,13 +90,13 @@ class Fragile(ImageFilter):
     broken = Bool(False, "raise on every frame")
 
     def filter(self, frame):
-        if self.params["broken"]:
+        if self.params.broken:
             raise RuntimeError("the filter broke")
         return frame
 
 
 def test_a_failing_module_is_reported_and_the_window_keeps_running(make_gui, qtbot):
-    system = build_preset("hsv")
+    system = starting_system("hsv")
     system.add_module(Fragile("fragile"), 0)
     gui = make_gui(system)
     system.module("fragile").set_parameters(broken=True)
@@ -103,7 +108,7 @@ def test_a_failing_module_is_reported_and_the_window_keeps_running(make_gui, qtb
 
 
 def test_a_source_that_cannot_be_opened_is_reported(make_gui, qtbot, tmp_path):
-    gui = make_gui(build_preset("hsv"))
+    gui = make_gui(starting_system("hsv"))
     gui.open_source(str(tmp_path / "missing.png"))
     qtbot.waitUntil(lambda: "no such file or folder" in gui.statusBar().currentMessage(), timeout=5000)
     with qtbot.waitSignal(gui.frameShown, timeout=5000):  # the old source goes on
@@ -111,7 +116,7 @@ def test_a_source_that_cannot_be_opened_is_reported(make_gui, qtbot, tmp_path):
 
 
 def test_stages_as_tabs_or_as_a_grid(make_gui, qtbot):
-    gui = make_gui(build_preset("hsv"), view_mode="tabs")
+    gui = make_gui(starting_system("hsv"), view_mode="tabs")
     views = gui.stage_views
     assert list(views.views) == ["input", "colour", "open", "blobs"]
     assert views.tabs.count() == 4 and [views.tabs.tabText(i) for i in range(4)][:2] == [
@@ -123,12 +128,13 @@ def test_stages_as_tabs_or_as_a_grid(make_gui, qtbot):
     with qtbot.waitSignal(gui.frameShown, timeout=5000):
         pass
     qtbot.waitUntil(lambda: all(v.paint_count > painted[k] for k, v in views.views.items()), timeout=5000)
-    mask = views.view("colour").image()
-    assert mask.ndim == 2 and set(np.unique(mask)) <= {0, 255}
+    mask = views.view("colour").image()  # the kind's preview of the mask: grey BGR
+    assert mask.shape == (480, 640, 3) and set(np.unique(mask)) == {0, 255}
+    assert (mask == mask[..., :1]).all()
 
 
 def test_closing_the_window_stops_processing(make_gui):
-    gui = make_gui(RecognitionSystem(build_preset("hsv").modules))
+    gui = make_gui(RecognitionSystem(starting_system("hsv").modules))
     thread = gui.worker._thread
     gui.close()
     assert thread is not None and not thread.is_alive()
@@ -142,13 +148,22 @@ def test_the_source_bar_opens_files_folders_cameras_and_the_demo(make_gui, qtbot
 
     for index in range(3):
         cv2.imwrite(str(tmp_path / f"frame{index}.png"), DemoScene().render(index)[0])
-    gui = make_gui(build_preset("hsv"))
+    gui = make_gui(starting_system("hsv"))
     bar = gui.source_bar
-    monkeypatch.setattr(QFileDialog, "getOpenFileName", staticmethod(lambda *a: (str(tmp_path / "frame1.png"), "")))
+    filters: list[str] = []
+
+    def get_open(parent, caption, folder, file_filter):
+        filters.append(file_filter)
+        return str(tmp_path / "frame1.png"), ""
+
+    monkeypatch.setattr(QFileDialog, "getOpenFileName", staticmethod(get_open))
     monkeypatch.setattr(QFileDialog, "getExistingDirectory", staticmethod(lambda *a: str(tmp_path)))
     bar.kind.setCurrentText("file")
     bar.open_button.click()
     qtbot.waitUntil(lambda: bar.name_label.text().strip() == f"{tmp_path / 'frame1.png'} (ended)", timeout=5000)
+    (offered,) = filters  # what the pipeline's kind (2d) reads: images and videos, no clouds
+    assert offered.startswith("Files 2d sources read (") and "*.png" in offered and "*.mp4" in offered
+    assert "*.pcd" not in offered
     assert gui.last_results.frame.source == str(tmp_path / "frame1.png")
     assert gui.files.last_folder() == str(tmp_path)
     bar.kind.setCurrentText("folder")
@@ -159,6 +174,12 @@ def test_the_source_bar_opens_files_folders_cameras_and_the_demo(make_gui, qtbot
     bar.open_button.click()  # no such camera here: reported, and the folder's last frame stays
     qtbot.waitUntil(lambda: "camera:63" in gui.statusBar().currentMessage()
                     and "cannot open" in gui.statusBar().currentMessage(), timeout=15000)
+    bar.kind.setCurrentText("spec")
+    assert bar.spec_action.isVisible() and not bar.camera_action.isVisible()
+    bar.spec_edit.setText("demo:seed=3")
+    bar.open_button.click()  # any spec a source of the pipeline's kind reads
+    qtbot.waitUntil(lambda: bar.name_label.text().strip() == "demo:seed=3", timeout=5000)
+    assert gui.worker.source.length is None  # the demo is endless unless frames= says otherwise
     bar.kind.setCurrentText("demo")
     bar.open_button.click()
     qtbot.waitUntil(lambda: bar.name_label.text().strip() == "demo", timeout=5000)
@@ -171,7 +192,7 @@ def test_help_about_explains_the_window(make_gui, monkeypatch):
 
     shown = []
     monkeypatch.setattr(QMessageBox, "about", staticmethod(lambda parent, title, text: shown.append((title, text))))
-    gui = make_gui(build_preset("hsv"), wait=False)
+    gui = make_gui(starting_system("hsv"), wait=False)
     gui.about_action.trigger()
     (title, text), = shown
     assert title == "About objrec-define" and "objrec-detect" in text and "Pipeline" in text
@@ -188,7 +209,7 @@ def test_a_source_that_breaks_mid_stream_is_reported_and_its_last_frame_stays(ma
             yield from (frame for _, frame in zip(range(2), DemoSource(), strict=False))
             raise SourceError("flaky: the cable came loose")
 
-    gui = make_gui(build_preset("hsv"), source=Breaking())
+    gui = make_gui(starting_system("hsv"), source=Breaking())
     qtbot.waitUntil(lambda: "the cable came loose" in gui.statusBar().currentMessage(), timeout=5000)
     assert gui.worker.ended and gui.last_results.frame.index == 1
     with qtbot.waitSignal(gui.frameShown, timeout=5000) as signal:

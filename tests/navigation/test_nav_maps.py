@@ -128,7 +128,7 @@ def test_save_then_load_round_trip(tmp_path, fmt, mode):
 
 
 def test_b5203_map_shipped_with_the_package(b5203_map, b5203_poses):
-    assert (b5203_map.width, b5203_map.height) == (576, 512)  # 28.8 m x 25.6 m as the seed's world file
+    assert (b5203_map.width, b5203_map.height) == (576, 512)  # 28.8 m x 25.6 m as the original Stage world file
     for goal in [*b5203_poses.goals, b5203_poses.station]:
         assert b5203_map.value_at(goal.x, goal.y) == 0
 

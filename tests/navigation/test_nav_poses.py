@@ -1,4 +1,4 @@
-"""The seed's goal-pose file format (Appendix E)."""
+"""The goal-pose file format: x, y, z, qx, qy, qz, qw per line."""
 
 from __future__ import annotations
 

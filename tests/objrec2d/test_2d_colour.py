@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from objrec2d import BinaryDetector, DemoSource, DetectedObject2DArray, HSVFilter, MorphologyFilter
-from objrec_core import DetectionDirector, RecognitionSystem, build_system
+from objrec_core import DetectionDirector, ParameterError, RecognitionSystem, build_system
 
 
 def hsv_patch_image(hues: list[int]) -> np.ndarray:
@@ -61,6 +61,25 @@ def test_binary_detector_bounds_contour_length_and_outlines_with_the_convex_hull
     colour = cv2.cvtColor(mask, cv2.COLOR_GRAY2BGR)
     assert len(BinaryDetector(min_contour_length=40).detect(colour)) == 2
     assert BinaryDetector(min_contour_length=500).detect(mask) == []
+
+
+def test_binary_detector_declares_its_length_order_instead_of_checking_it_by_hand():
+    (rule,) = BinaryDetector.parameter_rules()
+    assert rule.describe() == "min_contour_length <= max_contour_length"
+    detector = BinaryDetector(max_contour_length=100)
+    with pytest.raises(ParameterError) as caught:
+        detector.set_parameters(min_contour_length=200)
+    assert str(caught.value) == (
+        "BinaryDetector: parameter min_contour_length=200.0 is invalid: must be at most max_contour_length=100.0 "
+        "(nothing could ever be found)"
+    )
+    assert (detector.min_contour_length, detector.max_contour_length) == (40.0, 100.0)
+    detector.set_parameters(min_contour_length=100)  # equal is allowed
+    # Hard bounds for big frames, a slider range for the usual ones, the same for both ends.
+    for name in ("min_contour_length", "max_contour_length"):
+        spec = BinaryDetector.parameter_spec(name)
+        assert (spec.min, spec.max, spec.slider_range) == (0.0, 20000.0, (0.0, 5000.0))
+    assert BinaryDetector(min_contour_length=8000.0, max_contour_length=12000.0).max_contour_length == 12000.0
 
 
 def match_truth(array: DetectedObject2DArray, truth: dict, names: set[str] | None = None) -> list[float]:

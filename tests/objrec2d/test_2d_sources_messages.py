@@ -1,4 +1,5 @@
-"""Image sources (files, folders, video, camera retries, errors) and the JSON shape of 2D messages."""
+"""Image sources (the spec grammar, files, folders, video, camera retries, errors) and the JSON shape of 2D
+messages."""
 
 from __future__ import annotations
 
@@ -9,15 +10,18 @@ import numpy as np
 import pytest
 
 from objrec2d import (
-    CaptureSource,
+    CameraSource,
+    DemoSource,
     DetectedObject2D,
     DetectedObject2DArray,
     FolderSource,
     ImageFileSource,
     Polygon,
+    VideoSource,
     open_source,
 )
-from objrec_core import Header, SourceError
+from objrec_core import Header, SourceError, source_kinds
+from objrec_core import open_source as open_any_source
 
 
 def write_images(folder, count):
@@ -52,13 +56,14 @@ def test_single_image_and_errors(tmp_path):
     with pytest.raises(SourceError, match="holds no images"):
         (tmp_path / "empty").mkdir()
         open_source(str(tmp_path / "empty"))
-    with pytest.raises(SourceError, match="camera:N"):
+    with pytest.raises(SourceError, match=r"camera:front: option index='front' is invalid: expected int in 0\.\.1000"):
         open_source("camera:front")
-    with pytest.raises(SourceError, match="seed"):
+    with pytest.raises(SourceError, match=r"demo:x: option seed='x' is invalid: expected int"):
         open_source("demo:x")
     with pytest.raises(SourceError, match="no source given"):
         open_source("  ")
-    with pytest.raises(SourceError, match="camera:99999999999999999999: cannot open"):
+    with pytest.raises(SourceError, match=r"camera:99999999999999999999: option index='99999999999999999999' "
+                                          r"is invalid: out of range, allowed int in 0\.\.1000"):
         open_source("camera:99999999999999999999")
     unreadable = tmp_path / "unreadable"
     write_images(unreadable, 2)
@@ -75,7 +80,7 @@ def test_video_file_is_read_to_its_end(tmp_path):
         writer.write(np.full((48, 64, 3), i * 20, np.uint8))
     writer.release()
     source = open_source(str(path))
-    assert isinstance(source, CaptureSource) and source.length == 12
+    assert isinstance(source, VideoSource) and source.length == 12 and source.rate == pytest.approx(10.0)
     frames = list(source)
     assert len(frames) == 12 and frames[0].data.shape == (48, 64, 3)
     assert frames[5].stamp - frames[0].stamp == pytest.approx(0.5)
@@ -134,7 +139,8 @@ class FlakyCapture:
 
 def test_a_dropped_camera_is_retried_a_bounded_number_of_times():
     plans = [[True, True, False], [True, False], [False], [False], [False]]
-    source = CaptureSource(0, "camera:0", True, retries=3, retry_delay=0, opener=lambda _t: FlakyCapture(plans.pop(0)))
+    source = CameraSource(0, retries=3, retry_delay=0, opener=lambda _t: FlakyCapture(plans.pop(0)))
+    assert source.name == "camera:0" and source.length is None and source.rate is None
     frames = []
     with pytest.raises(SourceError, match="camera:0: camera stopped delivering frames after 3 retries"):
         for frame in source:
@@ -174,9 +180,37 @@ def test_detected_objects_serialise_with_the_ros_nesting():
 def test_files_that_are_not_videos_are_refused(tmp_path):
     cloud = tmp_path / "scan.pcd"
     cloud.write_text("# .PCD v0.7\nFIELDS x y z\n")
-    with pytest.raises(SourceError, match="needs a 3d parameter file"):
+    with pytest.raises(SourceError, match=r"scan\.pcd: a source of 3d data, but this pipeline works on 2d data"):
         open_source(str(cloud))
     text = tmp_path / "notes.avi"
     text.write_text("not a video at all\n" * 100)
-    with pytest.raises(SourceError, match=r"notes\.avi: "):
+    with pytest.raises(SourceError, match=r"notes\.avi: cannot open video file"):
         list(open_source(str(text)))
+    # A text file without a video suffix is no video either: nothing reads it, and the message says so.
+    notes = tmp_path / "notes.txt"
+    notes.write_text("a shopping list\n")
+    with pytest.raises(SourceError, match=r"notes\.txt: no 2d source reads this \(2d sources: schemes .*demo:"):
+        open_source(str(notes))
+    assert source_kinds(str(notes)) == []
+
+
+def test_the_spec_grammar_opens_the_demo_and_the_camera_by_their_options():
+    source = open_source("demo:3,frames=4")
+    assert isinstance(source, DemoSource) and source.length == 4 and source.rate == 30.0
+    assert source.name == "demo:3,frames=4"
+    same = DemoSource(seed=3, frames=4)
+    assert [f.index for f in source] == [0, 1, 2, 3]
+    assert all(np.array_equal(a.data, b.data) for a, b in zip(source, same, strict=True))
+    endless = open_source("demo")
+    assert endless.length is None  # frames=0, the default: endless
+    with pytest.raises(TypeError, match="no known length"):
+        len(endless)
+    with pytest.raises(SourceError, match=r"demo:seed=1,frames=-2: option frames='-2' is invalid: out of range"):
+        open_source("demo:seed=1,frames=-2")
+    with pytest.raises(SourceError, match=r"demo:1,2: too many values without a key \(this source takes seed\)"):
+        open_source("demo:1,2")
+    with pytest.raises(SourceError, match=r"camera:index=97: cannot open camera"):
+        open_source("camera:index=97")
+    # The kind-free opener cannot tell which demo is meant; the shortcut can.
+    with pytest.raises(SourceError, match="several kinds"):
+        open_any_source("demo")

@@ -1,5 +1,6 @@
-"""The parts on their own: factory look-up in OpenCV 4 and 5 places, the norm and index chosen from the
-descriptor, the ratio test and cross check, the homography's sanity checks, and the failure reasons."""
+"""The parts on their own: factory look-up in OpenCV 4 and 5 places, which parameters matter for which
+feature type, the norm and index chosen from the descriptor, the ratio test and cross check, the homography's
+sanity checks, and the failure reasons."""
 
 from __future__ import annotations
 
@@ -28,7 +29,12 @@ from objrec2d.features import geometry as geometry_module
 from objrec2d.features import types as types_module
 from objrec_core import ParameterError, Rect, SelectionRefused
 
-DEFAULTS = {spec.name: spec.default for spec in FeatureDetector.parameter_specs()}
+DEFAULTS = FeatureDetector.default_values()
+
+
+def snapshot(**changes: object) -> object:
+    """A parameter snapshot like ``detector.params``: the defaults with some values changed."""
+    return FeatureDetector.Parameters(**(DEFAULTS | changes))
 
 
 @pytest.fixture
@@ -55,7 +61,7 @@ def fake_cv2(monkeypatch):
 def test_factories_are_found_in_cv2_or_in_xfeatures2d(fake_cv2):
     assert types_module.unavailable_reason("ORB") is None
     assert types_module.unavailable_reason("AKAZE") is None
-    config = FeatureConfig.from_parameters(dict(DEFAULTS) | {"feature_type": "AKAZE"})
+    config = FeatureConfig.from_parameters(snapshot(feature_type="AKAZE"))
     assert create_feature2d(config) == "an AKAZE"
     assert fake_cv2[-1] == {"threshold": 0.001}
     reason = types_module.unavailable_reason("BRISK")
@@ -86,18 +92,76 @@ def test_the_real_opencv_has_orb_and_sift_and_says_why_for_the_rest():
     assert {"ORB", "SIFT"} <= set(available)
     for name in set(FEATURE_TYPES) - set(available):
         assert cv2.__version__ in types_module.unavailable_reason(name)
-        with pytest.raises(ParameterError, match=f"feature_type='{name}' is invalid: {name} "):
+        with pytest.raises(ParameterError, match=f"feature_type='{name}' is invalid: not available here: {name} "):
             FeatureDetector().set_parameters(feature_type=name)
 
 
+def test_the_feature_type_choice_offers_only_what_this_opencv_can_make():
+    spec = FeatureDetector.parameter_spec("feature_type")
+    available = available_feature_types()
+    assert spec.available_choices == tuple(available)
+    missing = [t for t in FEATURE_TYPES if t not in available]
+    assert spec.unavailable == {t: types_module.unavailable_reason(t) for t in missing}
+    assert spec.describe() == "one of " + ", ".join(available)  # what error messages and tooltips offer
+    assert spec.default in spec.available_choices  # a new detector must be possible everywhere
+
+
+@pytest.mark.skipif(types_module.unavailable_reason("SURF") is None, reason="this OpenCV has non-free SURF")
+def test_surf_is_refused_with_its_reason_where_it_is_unavailable():
+    reason = types_module.unavailable_reason("SURF")
+    assert reason.startswith("SURF ") and cv2.__version__ in reason
+    detector = FeatureDetector(feature_type="SIFT")
+    with pytest.raises(ParameterError) as caught:
+        detector.set_parameters(feature_type="SURF", surf_hessian_threshold=800.0)
+    assert caught.value.parameter == "feature_type" and caught.value.value == "SURF"
+    assert caught.value.rule == f"not available here: {reason}"
+    assert str(caught.value) == (
+        f"FeatureDetector: parameter feature_type='SURF' is invalid: not available here: {reason}"
+    )
+    assert detector.feature_type == "SIFT" and detector.surf_hessian_threshold == 400.0  # nothing was applied
+    with pytest.raises(ParameterError, match="not available here: SURF "):
+        FeatureDetector(feature_type="SURF")
+
+
+def test_each_types_own_settings_are_relevant_only_for_that_type():
+    detector = FeatureDetector()
+    shared = ["matcher", "ratio_test", "ratio", "cross_check", "min_matches", "homography_method",
+              "reprojection_threshold", "min_inliers", "min_inlier_coverage", "min_area", "max_area_fraction",
+              "min_corner_angle", "debug_view"]
+    orb = ["feature_type", "max_features", "orb_scale_factor", "orb_levels", "orb_fast_threshold"]
+    assert detector.relevant_parameters() == orb + shared
+    detector.set_parameters(feature_type="SIFT")
+    assert detector.relevant_parameters() == ["feature_type", "max_features", "sift_contrast_threshold", *shared]
+    # Other values can be asked about without setting them; AKAZE keeps no max_features.
+    akaze = detector.relevant_parameters(detector.get_parameters() | {"feature_type": "AKAZE"})
+    assert akaze == ["feature_type", "akaze_threshold", *shared]
+    surf = detector.relevant_parameters(detector.get_parameters() | {"feature_type": "SURF"})
+    assert surf == ["feature_type", "surf_hessian_threshold", *shared]
+    # The ratio only matters with the ratio test; LMEDS has no reprojection threshold.
+    others = detector.relevant_parameters(
+        detector.get_parameters() | {"ratio_test": False, "homography_method": "LMEDS"}
+    )
+    assert "ratio" not in others and "reprojection_threshold" not in others and "ratio_test" in others
+    spec = FeatureDetector.parameter_spec("orb_levels")
+    assert spec.relevance_text() == "only when feature_type is ORB"
+    # Every type-specific setting is relevant exactly for the types whose configuration includes it.
+    for name in types_module.FEATURE_PARAMETERS - {"feature_type"}:
+        users = {t for t, settings in types_module.TYPE_SETTINGS.items() if name in settings}
+        relevant = {t for t in FEATURE_TYPES if FeatureDetector.parameter_spec(name).is_relevant(
+            DEFAULTS | {"feature_type": t})}
+        assert relevant == users, name
+    # An irrelevant value is still kept, and saved: relevance only decides what a panel shows.
+    detector.set_parameters(orb_levels=5)
+    assert detector.get_parameters()["orb_levels"] == 5
+
+
 def test_only_the_chosen_types_settings_make_up_its_configuration():
-    defaults = dict(DEFAULTS)
-    orb = FeatureConfig.from_parameters(defaults)
+    orb = FeatureConfig.from_parameters(snapshot())
     assert orb.to_dict() == {
         "type": "ORB", "max_features": 1000, "orb_scale_factor": 1.2, "orb_levels": 8, "orb_fast_threshold": 20,
     }
-    assert FeatureConfig.from_parameters(defaults | {"sift_contrast_threshold": 0.1}) == orb
-    assert FeatureConfig.from_parameters(defaults | {"feature_type": "SIFT"}).to_dict() == {
+    assert FeatureConfig.from_parameters(snapshot(sift_contrast_threshold=0.1)) == orb
+    assert FeatureConfig.from_parameters(snapshot(feature_type="SIFT")).to_dict() == {
         "type": "SIFT", "max_features": 1000, "sift_contrast_threshold": 0.04,
     }
 
@@ -105,7 +169,7 @@ def test_only_the_chosen_types_settings_make_up_its_configuration():
 def descriptors_for(feature_type: str) -> tuple[np.ndarray, np.ndarray, int]:
     """Target and frame descriptors of one textured image and a shifted copy."""
     image = DemoScene(seed=0).render(0)[0][150:330, 200:440]
-    config = FeatureConfig.from_parameters(dict(DEFAULTS) | {"feature_type": feature_type})
+    config = FeatureConfig.from_parameters(snapshot(feature_type=feature_type))
     extractor = create_feature2d(config)
     _, target = extractor.detectAndCompute(image, None)
     _, frame = extractor.detectAndCompute(np.roll(image, (3, 5), axis=(0, 1)), None)

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from objrec2d import DemoScene, FeatureDetector
-from objrec_core import DefinitionDirector, RecognitionSystem, Rect, SelectionRefused
+from objrec_core import Change, DefinitionDirector, RecognitionSystem, Rect, SelectionRefused
 
 
 def plain_frame(seed: int = 1) -> np.ndarray:
@@ -78,13 +78,23 @@ def test_a_refused_selection_keeps_the_previous_target_and_reaches_the_gui_throu
     assert detector.target is target
 
 
-def test_observers_hear_of_a_new_target():
+def test_observers_hear_of_a_new_target_as_a_state_change():
     scene = DemoScene(seed=0)
     frame, _ = scene.render(0)
     detector = FeatureDetector()
     heard = []
-    detector.watch(heard.append)
+    detector.watch(lambda changes: heard.append(list(changes)))
+    states = []
+    detector.watch(lambda changes: states.append(list(changes)), names={"state"})
+    parameters = []
+    detector.watch(lambda changes: parameters.append(list(changes)), names={"min_inliers"})
     detector.process_area_selection(Rect(*scene.target.reference_rect), frame)
-    assert heard == [detector]
+    assert heard == [[Change(detector, "state")]] and states == heard and parameters == []
+    with pytest.raises(SelectionRefused):
+        detector.process_area_selection(Rect(0, 0, 4, 4), frame)
+    assert len(heard) == 1  # a refused selection changes nothing, so nobody hears of it
     detector.clear_target()
-    assert detector.target is None and len(heard) == 2
+    assert detector.target is None and heard == [[Change(detector, "state")]] * 2 and states == heard
+    detector.set_parameters(min_inliers=12)
+    assert heard[-1] == [Change(detector, "min_inliers", 10, 12)] and len(states) == 2
+    assert parameters == [[Change(detector, "min_inliers", 10, 12)]]

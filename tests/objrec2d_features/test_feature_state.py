@@ -79,7 +79,7 @@ def test_loading_a_sift_target_into_an_orb_detector_leaves_it_untouched(frames, 
     before = running.target
     with pytest.raises(ParameterFileError, match="computed with SIFT"):
         ParameterStorage(RecognitionSystem([running])).load_parameters(path)
-    assert running.target is before and running.params["min_inliers"] == 12
+    assert running.target is before and running.params.min_inliers == 12
     assert running.target.descriptors.dtype == np.uint8
 
 
@@ -87,10 +87,13 @@ def test_prepare_state_refuses_another_configuration(frames, scene):
     sift = poster_detector(frames, scene, feature_type="SIFT")
     orb = FeatureDetector("poster")
     with pytest.raises(ValueError, match="computed with SIFT"):
-        orb.prepare_state(sift.get_state(), orb.params)
-    other_threshold = {**sift.params, "sift_contrast_threshold": 0.08}
+        orb.prepare_state(sift.get_state(), orb.get_parameters())
+    other_threshold = sift.get_parameters() | {"sift_contrast_threshold": 0.08}
     with pytest.raises(ValueError, match="sift_contrast_threshold"):
         orb.prepare_state(sift.get_state(), other_threshold)
+    assert orb.target is None  # preparing changes nothing
+    prepared = orb.prepare_state(sift.get_state(), sift.get_parameters())
+    assert prepared.target.config == sift.target.config and orb.target is None
 
 
 def test_changing_the_feature_type_recomputes_the_target_from_its_image(frames, scene):

@@ -1,5 +1,5 @@
-"""Debug views (the seed's side-by-side match view and keypoints on the frame) and the headless app on
-the shipped demo file."""
+"""Debug views (the side-by-side match view and keypoints on the frame) and the headless app on the shipped
+demo file."""
 
 from __future__ import annotations
 

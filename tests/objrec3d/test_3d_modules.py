@@ -25,7 +25,16 @@ from objrec3d import (
     write_pcd,
 )
 from objrec3d.shape_detector import axis_angle_degrees, box_rotation
-from objrec_core import DetectionDirector, RecognitionSystem, SourceError, build_system, kind_plugin
+from objrec_core import (
+    DetectionDirector,
+    ParameterError,
+    ParameterFileError,
+    RecognitionSystem,
+    SourceError,
+    build_system,
+    get_kind,
+)
+from objrec_core import open_source as open_any_source
 
 
 @pytest.fixture(scope="module")
@@ -83,7 +92,7 @@ def test_bad_clouds_give_empty_results_not_crashes(data) -> None:
     assert isinstance(array, DetectedObject3DArray) and array.objects == []
 
 
-def test_messages_follow_the_seed_and_round_trip_through_json() -> None:
+def test_messages_follow_the_ros_layout_and_round_trip_through_json() -> None:
     rotation = box_rotation(np.array([0.0, -0.8, -0.6]), np.array([0.1, 0.0, 1.0]))
     obj = DetectedObject3D("mug", OrientedBox(Pose(Point(0.1, 0.0, 1.0), Quaternion.from_matrix(rotation)),
                                               0.08, 0.1, 0.08), "cylinder", 0.04, 1234)
@@ -106,14 +115,15 @@ def test_messages_follow_the_seed_and_round_trip_through_json() -> None:
 def test_shape_demo_parameter_file_finds_the_demo_objects(project_root) -> None:
     system = build_system(project_root / "params" / "shape_demo.yaml")
     assert system.kind == "3d" and [d.object_name for d in system.detectors] == ["cylinder", "sphere"]
-    source = kind_plugin("3d").open_source("demo:frames=2")
+    source = open_any_source("demo:frames=2", "3d")
+    assert source.length == 2
     for frame, array in zip(source, DetectionDirector(system).run(source), strict=False):
         names = sorted(o.name for o in array.objects)
         assert names == ["cylinder", "sphere"]
         for obj in array.objects:
             want = frame.truth.of_shape(obj.shape)[0]
             assert abs(obj.radius - want.radius) < 0.003
-            image = kind_plugin("3d").annotate(frame, array)
+            image = get_kind("3d").annotate(frame, array)
             assert image.shape == (480, 640, 3) and image.dtype == np.uint8
         break
 
@@ -126,16 +136,19 @@ def test_demo_is_deterministic_and_sources_report_bad_specs(tmp_path) -> None:
     assert not np.array_equal(demo_scene(5, 3)[0].points, a.points, equal_nan=True)
     source = open_source("demo:seed=5,frames=3")
     frames = list(source)
-    assert len(frames) == 3 == source.length and frames[2].truth is not None
+    assert len(frames) == 3 == source.length and frames[2].truth is not None and source.rate == 30.0
+    assert open_source("demo:5").length is None  # endless unless frames= is given, as the 2D demo
+    np.testing.assert_array_equal(next(iter(open_source("demo:5"))).data.points, frames[0].data.points)
     np.testing.assert_array_equal(frames[2].data.points, a.points)
     write_pcd(tmp_path / "a.pcd", a, "binary_compressed")
     write_pcd(tmp_path / "b.pcd", b, "binary")
     (tmp_path / "notes.txt").write_text("ignored")
     folder = list(open_source(str(tmp_path)))
     assert [f.index for f in folder] == [0, 1] and folder[0].data.is_organized
-    for spec, words in [("demo:frames=x", "integer"), ("demo:colour=1", "unknown option"),
+    for spec, words in [("demo:frames=x", r"option frames='x' is invalid: expected int in 0\.\.inf"),
+                        ("demo:colour=1", r"unknown option 'colour' \(options: seed, frames\)"),
                         (str(tmp_path / "none.pcd"), "no such file"),
-                        (str(tmp_path / "notes.txt"), "not a point-cloud"),
+                        (str(tmp_path / "notes.txt"), r"notes\.txt: no 3d source reads this \(3d sources: .*\.pcd"),
                         ("rgbd:a.png", "rgbd:COLOR,DEPTH"), ("rgbd:nope.png,nope2.png", "does not exist"),
                         ("realsense", "realsense")]:
         with pytest.raises(SourceError, match=words):
@@ -183,8 +196,6 @@ def test_normals_face_the_sensor_on_the_grid_and_by_neighbours(scene) -> None:
 
 
 def test_radius_limits_and_parameter_validation(scene) -> None:
-    from objrec_core import ParameterError
-
     cloud, _ = scene
     prepared = PlaneRemovalFilter().filter(DistanceFilter(max_distance=2.0).filter(cloud))
     assert ShapeDetector(max_radius=0.02).detect(prepared) == []  # demo radii are 4 and 6 cm
@@ -203,3 +214,48 @@ def test_a_voxel_thinned_organized_cloud_falls_back_to_neighbour_normals(scene) 
     for shape in ("cylinder", "sphere"):
         found = ShapeDetector(shape=shape).detect(thinned)
         assert len(found) == 1 and abs(found[0].radius - truth.of_shape(shape)[0].radius) < 0.003
+
+
+def test_a_minimum_radius_above_the_maximum_is_refused_naming_both_not_clamped(tmp_path) -> None:
+    with pytest.raises(ParameterError) as caught:
+        ShapeDetector(min_radius=0.2, max_radius=0.1)
+    assert str(caught.value) == (
+        "ShapeDetector: parameter min_radius=0.2 is invalid: must be at most max_radius=0.1 "
+        "(no radius could be reported)"
+    )
+    detector = ShapeDetector(max_radius=0.05)
+    with pytest.raises(ParameterError, match=r"min_radius=0\.08 is invalid: must be at most max_radius=0\.05"):
+        detector.set_parameters(min_radius=0.08)
+    with pytest.raises(ParameterError, match=r"min_radius=0\.01 is invalid: must be at most max_radius=0\.005"):
+        detector.set_parameters(max_radius=0.005)
+    assert (detector.min_radius, detector.max_radius) == (0.01, 0.05)  # nothing applied, nothing clamped
+    detector.set_parameters(min_radius=0.2, max_radius=0.3)  # together: the rule sees both new values
+    assert (detector.params.min_radius, detector.params.max_radius) == (0.2, 0.3)
+    detector.set_parameters(min_radius=0.3)  # equal is allowed: one radius exactly
+    assert ShapeDetector.parameter_spec("min_radius").slider_range == (0.0, 0.5)
+    path = tmp_path / "radii.yaml"
+    path.write_text("format_version: 1\nkind: 3d\npipeline:\n- type: ShapeDetector\n"
+                    "  parameters: {min_radius: 0.12, max_radius: 0.04}\n")
+    with pytest.raises(ParameterFileError) as file_error:
+        build_system(path)
+    assert file_error.value.key_path == "pipeline[0].parameters.min_radius"
+    assert "must be at most max_radius=0.04" in str(file_error.value)
+
+
+def test_a_minimum_distance_above_the_maximum_is_refused_and_far_ranges_are_open() -> None:
+    with pytest.raises(ParameterError, match=r"min_distance=2\.0 is invalid: must be at most max_distance=1\.5 "
+                                             r"\(every point would be dropped\)"):
+        DistanceFilter(min_distance=2.0)
+    far = DistanceFilter(min_distance=30.0, max_distance=80.0)  # a lidar's range: no arbitrary hard maximum
+    assert far.max_distance == 80.0
+    assert DistanceFilter.parameter_spec("max_distance").slider_range == (0.0, 10.0)
+    with pytest.raises(ParameterError, match="max_distance=-1"):
+        DistanceFilter(max_distance=-1.0)
+
+
+def test_huge_hard_ranges_offer_sliders_people_tune_in() -> None:
+    spec = ShapeDetector.parameter_spec("min_inliers")
+    assert (spec.min, spec.max, spec.slider_range) == (3, 10_000_000, (3, 5000))
+    ShapeDetector(min_inliers=1_000_000)  # typed values still reach the hard bound
+    plane = PlaneRemovalFilter.parameter_spec("min_plane_points")
+    assert (plane.max, plane.slider_range) == (10_000_000, (3, 50_000))

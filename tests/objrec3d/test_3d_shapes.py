@@ -27,7 +27,7 @@ def scenes():
 
 
 def visible_centre(cloud, want) -> np.ndarray:
-    """Ground truth for the seed's cylinder centre: the points of the scene that lie on the true surface
+    """Ground truth for the reported cylinder centre: the points of the scene that lie on the true surface
     (within 4 mm, between the caps), their centroid projected onto the true axis."""
     points = cloud.points[np.isfinite(cloud.points).all(axis=1)].astype(np.float64)
     rel = points - want.center
@@ -53,7 +53,7 @@ def test_cylinders_are_found_within_tolerance_in_95_percent_of_scenes(scenes) ->
         rel = obj.center - want.center
         across = float(np.linalg.norm(rel - (rel @ want.axis) * want.axis))  # axis position error
         angle = axis_angle_degrees(obj.axis, want.axis)
-        # The seed's centre is the inlier centroid projected on the axis: its ground truth is the centroid
+        # The reported centre is the inlier centroid projected on the axis: its ground truth is the centroid
         # of the cylinder's truly visible points projected on the true axis, checked in all three directions.
         ok = error <= 0.005 and abs(obj.radius - want.radius) <= 0.003 and angle <= 2.0
         ok &= obj.axis @ -obj.center >= 0  # axis sign convention

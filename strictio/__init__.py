@@ -1,0 +1,25 @@
+"""strictio: how the project reads and writes files it does not trust.
+
+One opener (:func:`open_input`) refuses what is not a regular file and caps the bytes read; one YAML reader
+(:func:`read_yaml`) refuses tags, aliases, duplicate keys and deep nesting; one writer
+(:func:`write_atomically`) replaces a file whole or not at all. It imports nothing of the project, so the
+framework and the navigation stack share it without depending on each other.
+"""
+
+from .atomic import write_atomically
+from .errors import InputError, OutputError
+from .opener import DEFAULT_LIMIT, open_input, read_bytes, read_text
+from .yaml_reader import YAMLLimits, read_yaml, yaml_text
+
+__all__ = [
+    "DEFAULT_LIMIT",
+    "InputError",
+    "OutputError",
+    "YAMLLimits",
+    "open_input",
+    "read_bytes",
+    "read_text",
+    "read_yaml",
+    "write_atomically",
+    "yaml_text",
+]
