@@ -130,7 +130,7 @@ def main() -> None:
     poses = load_poses(DATA / "b5203.txt")
     sim = Simulation(b5203, poses.station, SimConfig(record_every=0),
                      station=DockingStation.in_front_of(poses.station))
-    bench_patrol(f"B5.2.03 (seed poses, {len(poses.goals)} goals)", sim, list(poses.goals), poses.station,
+    bench_patrol(f"B5.2.03 (shipped poses, {len(poses.goals)} goals)", sim, list(poses.goals), poses.station,
                  args.laps)
 
     willow_yaml = args.shared_data / "maps/willow_2010/willow-2010-02-18-0.10.yaml"

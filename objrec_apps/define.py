@@ -52,8 +52,9 @@ def build_parser() -> argparse.ArgumentParser:
         "system", nargs="?", metavar="hsv|feature|shape|PARAMS_FILE",
         help="one of the three built-in systems, or a parameter file to open (none: an empty window)",
     )
-    parser.add_argument("--source", "-s", default="demo",
-                        help="demo (default), demo:SEED, camera:N, an image, a video, a folder, a cloud file")
+    parser.add_argument("--source", "-s", default=None,
+                        help="a source spec: demo, demo:seed=N,frames=N, camera:N, or a path (default: the "
+                        "pipeline's own demo source)")
     parser.add_argument("--view", choices=("tabs", "grid"), help="show the stages as tabs or as a grid")
     parser.add_argument("--paused", action="store_true", help="start paused on the first frame")
     parser.add_argument("--verbose", "-v", action="store_true", help="log more on stderr")
@@ -145,7 +146,10 @@ def run(args: argparse.Namespace) -> int:
     check_display()
     application_class = import_qt()
     system, path, origin = load_system(args.system)
-    source = open_source(args.source, system.kind)
+    spec = args.source
+    if spec is None:  # each kind names its own demo; an empty window waits for one
+        spec = objrec_core.get_kind(system.kind).demo_spec if system.kind else "demo"
+    source = open_source(spec, system.kind)
     application = application_class.instance() or application_class([PROG])
     application.setApplicationName(PROG)
     application.setOrganizationName("objrec")

@@ -2,15 +2,33 @@
 
 from __future__ import annotations
 
+import importlib.util
 import json
 import os
 import shutil
 import subprocess
 import sys
+from pathlib import Path
 
 import pytest
 
 from objrec_core import UnknownModuleError, module_type, module_type_names
+
+EXAMPLE = Path(__file__).resolve().parents[2] / "examples" / "objrec-invert-filter"
+
+
+def _example_tests():
+    """The example plug-in's own test module, so that the project's suite runs its tests too."""
+    spec = importlib.util.spec_from_file_location("objrec_invert_example_tests", EXAMPLE / "test_objrec_invert.py")
+    assert spec is not None and spec.loader is not None
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+example_tests = _example_tests()
+test_example_invert_filter_in_numbers = example_tests.test_invert_filter_in_numbers
+test_example_invert_filter_conforms = example_tests.test_invert_filter_conforms
 
 BUILT_IN = {
     "HSVFilter",

@@ -95,7 +95,7 @@ def test_the_shipped_demo_file_keeps_the_corners_within_3px_in_95_percent_of_fra
     errors = run_and_measure(system, 0, range(300))  # ten seconds of the scene
     assert share_within(errors) >= 0.95, np.percentile(errors, [50, 90, 95])
     assert np.isfinite(errors).all()  # found in every frame
-    # Another background (the poster is the same object whatever the seed), other moments.
+    # Another background (the poster is the same object whatever the random seed), other moments.
     assert share_within(run_and_measure(system, 7, range(300, 900, 10))) >= 0.95
 
 
