@@ -22,6 +22,7 @@ from .maps import MapError, load_map
 from .patrol import PatrolMachine
 from .poses import PoseFileError, load_poses
 from .render import ANIMATED, STILL, RunPicture, save_render
+from .rerun_log import PatrolRecorder, RerunUnavailable, open_patrol_rerun
 from .runner import Summary, run_patrol
 from .simulation import SimConfig, Simulation, StartPoseError
 
@@ -92,6 +93,9 @@ def build_parser() -> argparse.ArgumentParser:
                      help=f"picture of the run ({', '.join(STILL)}) or animation ({', '.join(ANIMATED)})")
     out.add_argument("--diagram", metavar="PATH",
                      help="Mermaid diagram of the machine, active states marked, kept up to date (.md: fenced)")
+    out.add_argument("--rerun", metavar="FILE.rrd|spawn",
+                     help="record the map, the robot's pose and path, scans, goals and state changes for the "
+                          "Rerun viewer: a .rrd file, or spawn to open the viewer (needs objrec[viz])")
     out.add_argument("-v", "--verbose", action="count", default=0, help="more log output on stderr")
     return p
 
@@ -181,6 +185,13 @@ def _run(parser: argparse.ArgumentParser, args: argparse.Namespace) -> int:
 
     machine = PatrolMachine(sim, pose_file.goals, station_pose, max_laps=args.laps,
                             resume_after_charging=args.resume_after_charging)
+    recorder: PatrolRecorder | None = None
+    if args.rerun:
+        try:
+            recorder = open_patrol_rerun(args.rerun, sim, pose_file.goals, station_pose)
+        except RerunUnavailable as exc:
+            print(f"{PROG}: error: {exc}", file=sys.stderr)
+            return 2
     try:
         if args.diagram:
             n = len(pose_file.goals)
@@ -198,6 +209,8 @@ def _run(parser: argparse.ArgumentParser, args: argparse.Namespace) -> int:
         return 2
     finally:
         sim.events.close()
+        if recorder is not None:
+            recorder.close()
     if args.diagram:
         write_diagram(args.diagram, len(pose_file.goals), machine.active_states())
     print(format_summary(summary))

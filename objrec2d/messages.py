@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from collections.abc import Iterable
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, ClassVar
 
 from objrec_core import DetectedObjectArray
 
@@ -108,6 +108,15 @@ class DetectedObject2D:
 
 @dataclass
 class DetectedObject2DArray(DetectedObjectArray):
-    """All objects found in one image (``object_detection_2d_msgs/DetectedObject2DArray``)."""
+    """All objects found in one image (``object_detection_2d_msgs/DetectedObject2DArray``).
+
+    ``ros_type`` and ``ros_definitions`` (ROS ``.msg`` text per type) let a kind-agnostic writer publish
+    these arrays as typed ROS messages: the definitions are embedded in the bags and MCAP files it writes.
+    """
 
     object_type = DetectedObject2D
+    ros_type: ClassVar[str] = "object_detection_2d_msgs/msg/DetectedObject2DArray"
+    ros_definitions: ClassVar[dict[str, str]] = {
+        "object_detection_2d_msgs/msg/DetectedObject2DArray": "std_msgs/Header header\nDetectedObject2D[] objects\n",
+        "object_detection_2d_msgs/msg/DetectedObject2D": "string name\ngeometry_msgs/Polygon polygon\n",
+    }

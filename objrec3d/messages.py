@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 
@@ -166,6 +166,22 @@ class DetectedObject3D:
 
 @dataclass
 class DetectedObject3DArray(DetectedObjectArray):
-    """All objects found in one cloud (``object_detection_3d_msgs/DetectedObject3DArray``)."""
+    """All objects found in one cloud (``object_detection_3d_msgs/DetectedObject3DArray``).
+
+    ``ros_type`` and ``ros_definitions`` (ROS ``.msg`` text per type) let a kind-agnostic writer publish
+    these arrays as typed ROS messages: the definitions are embedded in the bags and MCAP files it writes.
+    A ROS message has no optional fields: an object without a shape fit carries ``shape: ""``,
+    ``radius: 0.0`` and ``inliers: 0`` there, where its JSON line leaves them out.
+    """
 
     object_type = DetectedObject3D
+    ros_type: ClassVar[str] = "object_detection_3d_msgs/msg/DetectedObject3DArray"
+    ros_definitions: ClassVar[dict[str, str]] = {
+        "object_detection_3d_msgs/msg/DetectedObject3DArray": "std_msgs/Header header\nDetectedObject3D[] objects\n",
+        "object_detection_3d_msgs/msg/DetectedObject3D": (
+            "string name\nOrientedBox box\nstring shape\nfloat64 radius\nuint32 inliers\n"
+        ),
+        "object_detection_3d_msgs/msg/OrientedBox": (
+            "geometry_msgs/Pose pose\nfloat64 width\nfloat64 height\nfloat64 depth\n"
+        ),
+    }

@@ -1,8 +1,10 @@
-"""objrec-detect: run any parameter file headless and stream the detected objects as JSON Lines.
+"""objrec-detect: run any parameter file headless and stream the detected objects as JSON Lines, or write
+them as typed ROS messages into an MCAP file, a ROS 1 bag or a ROS 2 bag folder (``--output``).
 
-Exit codes: 0 done (also after Ctrl-C or SIGTERM, with everything written so far flushed); 1 a failure
-while running (a source that breaks mid-stream, a full disk); 2 a user mistake (bad parameter file, option,
-or a source that cannot be opened or yields not even one frame).
+Exit codes: 0 done (also after Ctrl-C or SIGTERM, with everything written so far flushed and a typed
+output completed); 1 a failure while running (a source that breaks mid-stream, a full disk under a JSON
+Lines output); 2 a user mistake (bad parameter file, option, or a source that cannot be opened or yields
+not even one frame) and any typed output that cannot be written (it is then left out entirely).
 """
 
 from __future__ import annotations
@@ -35,9 +37,12 @@ from objrec_core import (
     get_kind,
     open_source,
 )
+from strictio import OutputError
 
+from . import outputs
 from .annotation_writer import AnnotationError, AnnotationWriter
 from .cli import USER_ERROR, UserError, configure_logging, report
+from .rerun_log import RerunUnavailable, open_rerun
 
 log = logging.getLogger("objrec.detect")
 PROG = "objrec-detect"
@@ -46,16 +51,34 @@ PROG = "objrec-detect"
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog=PROG,
-        description="Detect objects with a parameter file made by objrec-define; one JSON line per frame.",
-        epilog="Sources: a path (image, video, folder, cloud file) or scheme:key=value,... such as demo, "
-        "demo:seed=3,frames=100, camera:0, rgbd:COLOR,DEPTH. The parameter file's kind decides which are read.",
+        description="Detect objects with a parameter file made by objrec-define; one JSON line per frame, or "
+        "typed ROS messages in an MCAP file or a bag.",
+        epilog="Sources: a path (image, video, folder, cloud file, .bag, .mcap, ROS 2 bag folder) or "
+        "scheme:key=value,... such as demo, demo:seed=3,frames=100, camera:0, rgbd:COLOR,DEPTH, "
+        "bag:PATH,topic=NAME. The parameter file's kind decides which are read.",
     )
-    parser.add_argument("params", metavar="PARAMS_FILE", help="parameter file (YAML) of a recognition system")
-    parser.add_argument("--source", "-s", required=True, help="demo, demo:seed=N,frames=N, camera:N, or a path")
-    parser.add_argument("--output", "-o", metavar="FILE", help="write the JSON lines here instead of stdout")
+    parser.add_argument("params", metavar="PARAMS_FILE", nargs="?",
+                        help="parameter file (YAML) of a recognition system")
+    parser.add_argument("--source", "-s", help="demo, demo:seed=N,frames=N, camera:N, bag:PATH, or a path")
+    parser.add_argument(
+        "--output", "-o", metavar="PATH",
+        help="where the detections go instead of stdout: FILE.mcap (MCAP), FILE.bag (ROS 1 bag) or a folder "
+        "(ROS 2 bag, MCAP storage) get typed ROS messages (needs objrec[ros]); any other file JSON lines",
+    )
+    parser.add_argument("--output-topic", metavar="TOPIC",
+                        help="topic of the typed messages (default: /objrec/<object name>)")
+    parser.add_argument("--copy-input", action="store_true",
+                        help="with a bag source and a typed output: copy the topics it reads too (a depth "
+                        "topic with its CameraInfo and colour topics), so the output replays with its detections")
+    parser.add_argument("--list-topics", metavar="SOURCE",
+                        help="print the topics, types and message counts of a bag or MCAP file, and exit")
     parser.add_argument("--max-frames", "-n", type=int, metavar="N", help="stop after N frames")
     parser.add_argument("--frame-id", default="camera",
                         help="frame_id written in headers when the source gives none (default: camera)")
+    parser.add_argument(
+        "--rerun", metavar="FILE.rrd|spawn",
+        help="also log every frame, stage and detection to a Rerun recording (needs objrec[viz])",
+    )
     parser.add_argument(
         "--annotate", metavar="PATH", help="also write pictures: a video (.avi/.mp4) or a folder of PNGs"
     )
@@ -145,6 +168,48 @@ def _open(args: argparse.Namespace) -> tuple[DetectionDirector, FrameSource, Kin
     return DetectionDirector(system, frame_id=args.frame_id), source, kind
 
 
+def _check_output_options(args: argparse.Namespace) -> None:
+    """The output options that can be judged before anything is opened."""
+    if args.output and outputs.is_typed_output(args.output):
+        outputs.require_rosbags(f"--output {args.output}")
+        if args.output_topic:
+            args.output_topic = outputs.check_topic(args.output_topic)
+        return
+    for option, given in (("--output-topic", args.output_topic), ("--copy-input", args.copy_input)):
+        if given:
+            raise UserError(f"{option} needs a typed --output (FILE.mcap, FILE.bag or a ROS 2 bag folder)")
+
+
+def _typed_writer(args: argparse.Namespace, director: DetectionDirector, source: FrameSource) -> Any:
+    """The typed-message writer ``--output`` asks for, or None for JSON Lines."""
+    if not (args.output and outputs.is_typed_output(args.output)):
+        return None
+    system = director.system
+    topic = args.output_topic or outputs.default_topic(system.object_name)
+    copy = outputs.input_copy(source) if args.copy_input else None
+    return outputs.open_typed_writer(args.output, system.object_array_type, topic, copy)
+
+
+def _skipping_empty(sink: Any) -> Any:
+    def write(array: DetectedObjectArray) -> None:
+        if array.objects:
+            sink(array)
+
+    return write
+
+
+def _list_topics(args: argparse.Namespace, stdout: IO[str]) -> int:
+    outputs.require_rosbags("--list-topics")
+    from objrec_ros.bags import list_topics
+
+    try:
+        text = list_topics(outputs.recording_path(args.list_topics))
+    except SourceError as exc:
+        raise UserError(str(exc)) from None
+    stdout.write(text + "\n")
+    return 0
+
+
 def _output_stream(path: str) -> IO[str]:
     """The JSON Lines file, its missing parent folders made."""
     target = Path(path)
@@ -156,6 +221,9 @@ def _output_stream(path: str) -> IO[str]:
 
 
 def run(args: argparse.Namespace, stdout: IO[str]) -> int:
+    if args.list_topics:
+        return _list_topics(args, stdout)
+    _check_output_options(args)
     director, source, kind = _open(args)
     stopper = _Stopper()
     previous = {}
@@ -163,16 +231,31 @@ def run(args: argparse.Namespace, stdout: IO[str]) -> int:
         previous = {sig: signal.signal(sig, stopper) for sig in (signal.SIGTERM, signal.SIGINT)}
     writer = None
     output = None
+    typed = None
+    recorder = None
+    status = 0
     try:
-        output = _output_stream(args.output) if args.output else None
-        director.add_sink(JSONLinesSink(output or stdout, skip_empty=args.skip_empty))
+        if args.rerun:
+            try:
+                recorder = open_rerun(args.rerun, kind, director.system)
+            except RerunUnavailable as exc:
+                raise UserError(str(exc)) from None
+            director.keep_stages = True
+            director.add_annotation_sink(recorder)
+        typed = _typed_writer(args, director, source)
+        if typed is not None:
+            director.add_sink(_skipping_empty(typed) if args.skip_empty else typed)
+        else:
+            output = _output_stream(args.output) if args.output else None
+            director.add_sink(JSONLinesSink(output or stdout, skip_empty=args.skip_empty))
         if args.annotate:
             try:
                 writer = AnnotationWriter(args.annotate)
             except AnnotationError as exc:
                 raise UserError(str(exc)) from None
-            director.keep_stages = args.annotate_view == "debug"
-            director.add_annotation_sink(PictureSink(writer, kind, debug=director.keep_stages))
+            debug = args.annotate_view == "debug"
+            director.keep_stages = director.keep_stages or debug
+            director.add_annotation_sink(PictureSink(writer, kind, debug=debug))
         director.run_all(source, args.max_frames, stop=stopper.event, progress=BarProgress(args.progress))
         if director.stats.stopped_by == "stop":
             log.warning("stopped by %s after %d frames", stopper.reason, director.stats.frames)
@@ -182,29 +265,61 @@ def run(args: argparse.Namespace, stdout: IO[str]) -> int:
         raise
     except (SourceError, AnnotationError) as exc:
         report(PROG, exc)
-        return 2 if director.stats.frames == 0 else 1  # nothing read at all: the source itself is bad
+        status = 2 if director.stats.frames == 0 else 1  # nothing read at all: the source itself is bad
+    except OutputError as exc:  # a typed output that cannot be written: it is left out entirely
+        report(PROG, exc)
+        status = 2
     except OSError as exc:  # the output went away: a full disk, a closed device
         report(PROG, f"writing {args.output or 'the output'}: {exc.strerror or exc}")
-        return 1
+        status = 1
+    except BaseException:  # a user mistake found late or an unexpected error: no half-written typed output
+        if typed is not None:
+            typed.abort()
+        raise
     finally:
         if writer is not None:
             writer.close()
+        if recorder is not None:
+            recorder.close()
         if output is not None:
             with contextlib.suppress(OSError):  # already reported above
                 output.close()
         source.close()
         for sig, handler in previous.items():
             signal.signal(sig, handler)
+    if typed is not None:
+        status = _finish_typed(typed, keep=status != 2, status=status)
+    if status:
+        return status
     stats = director.stats
     print(f"{PROG}: {stats.frames} frames, {stats.objects} objects, {stats.seconds:.2f} s, {stats.rate:.1f} frames/s",
           file=sys.stderr)
     if writer is not None:
         print(f"{PROG}: {writer.count} annotated frames written to {args.annotate}", file=sys.stderr)
+    if typed is not None:
+        print(f"{PROG}: {typed.count} messages on {typed.topic} written to {args.output}", file=sys.stderr)
     return 0
 
 
+def _finish_typed(typed: Any, keep: bool, status: int) -> int:
+    """Complete a typed output with everything written so far (also after a stop or a source that broke
+    mid-stream), or drop it when the run wrote nothing usable; a failure to complete it is exit code 2."""
+    if not keep:
+        typed.abort()
+        return status
+    try:
+        typed.close()
+    except OutputError as exc:
+        report(PROG, exc)
+        return 2
+    return status
+
+
 def main(argv: list[str] | None = None) -> int:
-    args = build_parser().parse_args(argv)
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    if not args.list_topics and (args.params is None or args.source is None):
+        parser.error("PARAMS_FILE and --source are required (except with --list-topics)")
     configure_logging(PROG, args.verbose)
     try:
         return run(args, sys.stdout)

@@ -17,6 +17,7 @@ from PySide6.QtCore import QByteArray, QSettings, Qt, Signal
 from PySide6.QtGui import QAction, QActionGroup, QCloseEvent, QKeySequence
 from PySide6.QtWidgets import (
     QDockWidget,
+    QInputDialog,
     QLabel,
     QMainWindow,
     QMessageBox,
@@ -43,6 +44,7 @@ from .parameter_files import ParameterFiles
 from .pipeline_menu import PipelineMenu
 from .source_bar import FrameRate, SourceBar
 from .stage_views import MODES, StageViews, stage_images
+from .topic_chooser import with_topic
 from .view3d import View3D, prepare_scene
 from .worker import ProcessingWorker, Shown
 
@@ -225,7 +227,12 @@ class DefinitionGUI(QMainWindow):
     def open_source(self, spec: str, why: str = "") -> None:
         """Open a source for the pipeline's kind of data (in the worker thread). With no kind yet, the kind
         whose source reads the spec; a spec of several kinds (``demo``) waits for the pipeline to get one.
-        ``why`` starts the status message."""
+        ``why`` starts the status message. A recording of several topics asks which one to play."""
+        chosen = with_topic(spec, self.ask_choice)
+        if chosen is None:
+            self.show_message(f"{spec} not opened: no topic chosen")
+            return
+        spec = chosen
         kind = self.system.kind
         if kind is None:
             try:
@@ -247,6 +254,11 @@ class DefinitionGUI(QMainWindow):
         self._source_kind = kind
         self.show_message(f"{why}: opening {spec}…" if why else f"Opening {spec}…")
         self.worker.open_source(spec, kind)
+
+    def ask_choice(self, title: str, labels: list[str]) -> str | None:
+        """One of ``labels``, chosen by the user in a dialog; None when cancelled."""
+        label, ok = QInputDialog.getItem(self, "objrec-define", title, labels, 0, False)
+        return label if ok else None
 
     @staticmethod
     def _kind_title(name: str) -> str:

@@ -1,0 +1,189 @@
+"""What the kinds' bag sources share: the spec, the recording, the window, the replay pace and the topic choice.
+
+``objrec2d.bag_source.ImageBagSource`` and ``objrec3d.bag_source.CloudBagSource`` subclass :class:`BagSource`;
+each chooses its topics and turns messages into its frames. Spec: ``bag:PATH[,topic=NAME,start=S,end=S,
+rate=R]``, or the plain path of a ``.bag``/``.mcap`` file or a ROS 2 bag folder (then with the defaults).
+
+- ``start``/``end``: seconds into the recording (from its first message, any topic), as ``rosbag play -s``
+  counts them; ``end=0`` reads to the end.
+- ``rate``: the replay pace against the recorded log times: 1 as recorded, 2 twice as fast, 0.5 half as fast;
+  0 (the default) reads as fast as frames are asked for, which is what a batch run wants.
+- Each frame carries the message's header stamp (its log time where the header stamp is zero) and frame_id.
+"""
+
+from __future__ import annotations
+
+import logging
+import time
+from abc import abstractmethod
+from collections.abc import Callable, Iterator, Sequence
+from pathlib import Path
+from typing import Any, ClassVar
+
+from objrec_core import Float, Frame, FrameSource, SourceError, SourceSpec, Str
+
+from .bags import RECORDING_SUFFIXES, Recording, RecordingError, TopicInfo, is_recording_path, open_recording
+from .decode import DecodeError
+
+log = logging.getLogger(__name__)
+
+#: One frame as a kind's source makes it: (log time ns, stamp s, frame_id, data).
+Decoded = tuple[int, float, str, Any]
+
+
+def topic_names(topics: Sequence[TopicInfo]) -> str:
+    return ", ".join(t.name for t in topics) or "none"
+
+
+def topics_with_types(topics: Sequence[TopicInfo]) -> str:
+    return ", ".join(f"{t.name} ({t.msgtype})" for t in topics) or "none"
+
+
+class BagSource(FrameSource):
+    """Frames of one topic of a recording (a subclass per kind). Opening checks the topic and decodes its
+    first message in the window, so a recording objrec cannot read fails before any frame is asked for."""
+
+    schemes = ("bag",)
+    extensions = RECORDING_SUFFIXES
+    options = {  # noqa: RUF012 - declarations, never mutated
+        "path": Str("", "the recording: a .bag or .mcap file, or a ROS 2 bag folder"),
+        "topic": Str("", "the topic to read (default: the only one this kind can read)"),
+        "start": Float(0.0, "seconds into the recording to start at", min=0.0),
+        "end": Float(0.0, "seconds into the recording to stop before (0: its end)", min=0.0),
+        "rate": Float(0.0, "replay pace: 1 as recorded, 2 twice as fast; 0 as fast as frames are read",
+                      min=0.0, max=1000.0),
+    }
+    positional = ("path",)
+    #: What this kind calls the topics it reads, for messages ("image", "point-cloud").
+    noun: ClassVar[str] = "readable"
+    #: The message types it reads, for messages.
+    readable_types: ClassVar[str] = ""
+
+    @classmethod
+    def path_score(cls, path: Path) -> int:
+        """2 for a .bag/.mcap file or a folder with metadata.yaml: a ROS 2 bag folder beats a folder of images."""
+        return 2 if is_recording_path(path) else 0
+
+    @classmethod
+    def recording_path(cls, spec: SourceSpec, options: dict[str, Any]) -> str:
+        """The recording a spec names: its path, or ``bag:``'s ``path`` option."""
+        if spec.scheme is None:
+            return str(spec.path)
+        if not options["path"]:
+            raise SourceError(f"{spec.text}: no recording given (bag:PATH[,topic=NAME,start=S,end=S,rate=R])")
+        return str(options["path"])
+
+    def __init__(self, path: str | Path, *, topic: str = "", start: float = 0.0, end: float = 0.0,
+                 rate: float = 0.0, name: str | None = None) -> None:
+        self.name = name or str(path)
+        if start < 0 or end < 0 or rate < 0:
+            raise SourceError(f"{self.name}: start, end and rate must not be negative")
+        if end and end <= start:
+            raise SourceError(f"{self.name}: end={end:g} must come after start={start:g}")
+        self.pace = float(rate)
+        self.recording: Recording = open_recording(path)
+        try:
+            if not self.recording.message_count:
+                raise RecordingError(self.recording.path, "the recording holds no messages")
+            if start and start >= self.recording.duration:
+                raise SourceError(f"{self.name}: start={start:g} lies past the end of the recording "
+                                  f"({self.recording.duration:.3f} s)")
+            self.start: float | None = start or None
+            self.end: float | None = end or None
+            self._times: list[int] | None = None
+            self.topic_info = self._select(topic)
+        except BaseException:
+            self.recording.close()
+            raise
+
+    # -- choosing the topic -----------------------------------------------------------------------------
+    @abstractmethod
+    def _select(self, topic: str) -> TopicInfo:
+        """Choose and check the topic (and whatever goes with it); raise RecordingError when unusable."""
+
+    @abstractmethod
+    def _decoded(self) -> Iterator[Decoded]:
+        """The frames' parts in order; DecodeError and RecordingError are reported by ``__iter__``."""
+
+    def error(self, message: str) -> RecordingError:
+        return RecordingError(self.recording.path, message)
+
+    def choose(self, wanted: str, candidates: Callable[[], Sequence[TopicInfo]]) -> TopicInfo:
+        """The topic asked for, or the only candidate; errors list the candidates (or every topic).
+
+        ``candidates`` is called only where needed (finding them may read a message of each topic)."""
+        if wanted:
+            for info in self.recording.topics():
+                if info.name == wanted:
+                    return info
+            raise self.error(f"no topic {wanted} ({self.noun} topics: {topic_names(candidates())})")
+        found = candidates()
+        if len(found) == 1:
+            return found[0]
+        if not found:
+            raise self.error(f"no {self.noun} topic ({self.readable_types}); its topics: "
+                             f"{topics_with_types(self.recording.topics())}")
+        raise self.error(f"several {self.noun} topics ({topic_names(found)}); choose one with "
+                         f"bag:{self.recording.path},topic=NAME")
+
+    def wrong_type(self, info: TopicInfo, candidates: Sequence[TopicInfo]) -> RecordingError:
+        return self.error(f"topic {info.name} holds {info.msgtype}, which a {self.kind} bag source cannot read "
+                          f"({self.readable_types}; {self.noun} topics: {topic_names(candidates)})")
+
+    def first_message(self, topic: str, windowed: bool = True) -> tuple[int, Any]:
+        """The first message of ``topic`` (in the window): RecordingError when there is none."""
+        found = self.recording.first(topic, self.start, self.end) if windowed else self.recording.first(topic)
+        if found is None:
+            if windowed and (self.start or self.end):
+                raise self.error(f"topic {topic} has no messages between {self.start or 0:g} s and "
+                                 f"{self.end or self.recording.duration:g} s")
+            raise self.error(f"topic {topic} has no messages")
+        return found
+
+    def check(self, topic: str, index: int, make: Any, *args: Any) -> Any:
+        """``make(*args)``, a DecodeError reported as this recording's, topic's and message's error."""
+        try:
+            return make(*args)
+        except DecodeError as exc:
+            raise self.error(f"{topic}: message {index}: {exc}") from None
+
+    # -- the frames -------------------------------------------------------------------------------------
+    def _log_times(self) -> list[int]:
+        if self._times is None:
+            self._times = self.recording.log_times(self.topic_info.name, self.start, self.end)
+        return self._times
+
+    @property
+    def length(self) -> int:
+        """Messages of the topic in the window (counted from the index when there is no window)."""
+        if self.start is None and self.end is None:
+            return self.topic_info.count
+        return len(self._log_times())
+
+    @property
+    def rate(self) -> float | None:
+        """The topic's mean frequency in the window (messages per second of log time)."""
+        times = self._log_times()
+        if len(times) < 2 or times[-1] <= times[0]:
+            return None
+        return (len(times) - 1) / ((times[-1] - times[0]) / 1e9)
+
+    def __iter__(self) -> Iterator[Frame]:
+        index = 0
+        wall0 = log0 = None
+        try:
+            for log_time, stamp, frame_id, data in self._decoded():
+                if self.pace > 0:
+                    if wall0 is None or log0 is None:
+                        wall0, log0 = time.monotonic(), log_time
+                    else:
+                        delay = (log_time - log0) / 1e9 / self.pace - (time.monotonic() - wall0)
+                        if delay > 0:
+                            time.sleep(delay)
+                yield Frame(data, stamp, index, self.name, frame_id=frame_id)
+                index += 1
+        except DecodeError as exc:
+            raise self.error(f"{self.topic_info.name}: message {index}: {exc}") from None
+
+    def close(self) -> None:
+        self.recording.close()
