@@ -14,6 +14,8 @@ from collections.abc import Sequence
 from dataclasses import replace
 from pathlib import Path
 
+from rerunio import RerunUnavailable
+
 from .battery import LaptopBatteryParams, RobotBatteryParams, kobuki_percent, kobuki_voltage
 from .diagram import write_diagram
 from .docking import DockingStation
@@ -22,7 +24,7 @@ from .maps import MapError, load_map
 from .patrol import PatrolMachine
 from .poses import PoseFileError, load_poses
 from .render import ANIMATED, STILL, RunPicture, save_render
-from .rerun_log import PatrolRecorder, RerunUnavailable, open_patrol_rerun
+from .rerun_log import PatrolRecorder, open_patrol_rerun
 from .runner import Summary, run_patrol
 from .simulation import SimConfig, Simulation, StartPoseError
 

@@ -22,21 +22,15 @@ recording is opened, so this module loads without the extra. The module imports 
 
 from __future__ import annotations
 
-import contextlib
-import importlib.util
 import logging
 import math
 import os
-import shutil
-import socket
-import subprocess
-import sys
-import time
 from collections.abc import Callable, Sequence
-from pathlib import Path
 from typing import Any
 
 import numpy as np
+
+from rerunio import VIEWER_PORT, import_rerun, open_stream
 
 from .events import Event
 from .geometry import Pose2D
@@ -45,12 +39,6 @@ from .simulation import Simulation
 
 log = logging.getLogger(__name__)
 
-INSTALL_HINT = "install objrec[viz] (pip install 'objrec[viz]')"
-VIEWER_PORT = 9876
-VIEWER_START_SECONDS = 15.0
-#: How long a started viewer must keep running before recording to it.
-VIEWER_SETTLE_SECONDS = 1.5
-
 # Heights above the map plane, so that lines and arrows are drawn over the grid, not into it.
 Z_PATH, Z_PLAN, Z_MARK, Z_BODY = 0.02, 0.03, 0.05, 0.10
 ARROW_LENGTH = 0.4
@@ -58,90 +46,6 @@ COLOURS = {"path": (40, 110, 255), "plan": (0, 200, 0), "goal": (255, 160, 0), "
            "station": (160, 0, 200), "robot": (60, 60, 60), "scan": (230, 30, 30), "collision": (255, 0, 0)}
 WARNING_EVENTS = {"collision", "recovery", "preempt_requested"}
 
-
-class RerunUnavailable(RuntimeError):
-    """A Rerun recording cannot be made as asked: rerun-sdk is not installed, no viewer can be spawned,
-    or the target is neither ``spawn`` nor a writable ``.rrd`` path. The message is one line for the user."""
-
-
-def _import_rerun() -> Any:
-    try:
-        import rerun
-    except ImportError as exc:
-        raise RerunUnavailable(f"--rerun needs rerun-sdk, which is not installed: {INSTALL_HINT}") from exc
-    return rerun
-
-
-def _listening(port: int) -> bool:
-    with contextlib.suppress(OSError), socket.create_connection(("127.0.0.1", port), timeout=0.5):
-        return True
-    return False
-
-
-def spawn_viewer(port: int = VIEWER_PORT) -> None:
-    """Start a Rerun viewer on ``port`` (or use one already there), its stdout on the null device: the
-    summary owns stdout (``rr.spawn`` would let the viewer write there)."""
-    if sys.platform.startswith("linux") and not (os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY")):
-        raise RerunUnavailable("--rerun spawn: no display to show the Rerun viewer on (DISPLAY and "
-                               "WAYLAND_DISPLAY are unset); record to a file instead: --rerun out.rrd")
-    if _listening(port):
-        log.info("a viewer already listens on port %d; recording to it", port)
-        return
-    if importlib.util.find_spec("rerun_cli") is not None:
-        command = [sys.executable, "-m", "rerun_cli"]
-    elif (found := shutil.which("rerun")) is not None:
-        command = [found]
-    else:
-        raise RerunUnavailable(f"--rerun spawn: no Rerun viewer found (rerun_cli or rerun on PATH); {INSTALL_HINT}")
-    try:
-        viewer = subprocess.Popen([*command, f"--port={port}", "--expect-data-soon"], stdin=subprocess.DEVNULL,
-                                  stdout=subprocess.DEVNULL, start_new_session=True)
-    except OSError as exc:
-        raise RerunUnavailable(f"--rerun spawn: the Rerun viewer cannot be started: {exc}") from None
-    deadline = time.monotonic() + VIEWER_START_SECONDS
-    while not _listening(port):
-        code = viewer.poll()
-        if code is not None:
-            raise RerunUnavailable(f"--rerun spawn: the Rerun viewer stopped at once (exit code {code}); "
-                                   "record to a file instead: --rerun out.rrd")
-        if time.monotonic() > deadline:
-            raise RerunUnavailable(f"--rerun spawn: the Rerun viewer did not listen on port {port} within "
-                                   f"{VIEWER_START_SECONDS:g} s; record to a file instead: --rerun out.rrd")
-        time.sleep(0.1)
-    # The viewer listens before it opens its window, and a window that cannot open (a display that is set
-    # but unreachable) ends it a moment later: see that it survives that moment.
-    settled = time.monotonic() + VIEWER_SETTLE_SECONDS
-    while time.monotonic() < settled:
-        code = viewer.poll()
-        if code is not None:
-            raise RerunUnavailable(f"--rerun spawn: the Rerun viewer could not open its window (exit code {code}); "
-                                   "record to a file instead: --rerun out.rrd")
-        time.sleep(0.1)
-
-
-def open_stream(target: str | os.PathLike[str], application_id: str, blueprint: Any = None,
-                port: int = VIEWER_PORT) -> Any:
-    """A ``rr.RecordingStream`` writing to ``target``: a path ending in ``.rrd``, or ``spawn``."""
-    rr = _import_rerun()
-    text = os.fspath(target)
-    if text != "spawn" and Path(text).suffix.lower() != ".rrd":
-        raise RerunUnavailable(f"--rerun {text}: give a file ending in .rrd, or spawn to open the viewer")
-    stream = rr.RecordingStream(application_id)
-    if text == "spawn":
-        spawn_viewer(port)
-        try:
-            stream.connect_grpc(f"rerun+http://127.0.0.1:{port}/proxy", default_blueprint=blueprint)
-        except (RuntimeError, ValueError) as exc:
-            raise RerunUnavailable(f"--rerun spawn: cannot connect to the Rerun viewer: {exc}") from None
-        return stream
-    path = Path(text).expanduser()
-    try:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        stream.save(path, default_blueprint=blueprint)
-    except (OSError, RuntimeError) as exc:
-        reason = getattr(exc, "strerror", None) or str(exc)
-        raise RerunUnavailable(f"{text}: cannot be written: {reason}") from None
-    return stream
 
 
 def patrol_blueprint() -> Any:
@@ -331,6 +235,6 @@ def open_patrol_rerun(target: str | os.PathLike[str], sim: Simulation, goals: Se
     spawned or the file cannot be written. ``options`` go to :class:`PatrolRecorder` (periods, path strips).
     """
     _check_periods(options.get("pose_period", 0.2), options.get("scan_period", 1.0))
-    _import_rerun()
+    import_rerun()
     stream = open_stream(target, "objrec-patrol", patrol_blueprint(), port)
     return PatrolRecorder(stream, sim, goals, station_pose, **options)

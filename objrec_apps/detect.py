@@ -37,12 +37,13 @@ from objrec_core import (
     get_kind,
     open_source,
 )
+from rerunio import RerunUnavailable
 from strictio import OutputError
 
 from . import outputs
 from .annotation_writer import AnnotationError, AnnotationWriter
 from .cli import USER_ERROR, UserError, configure_logging, report
-from .rerun_log import RerunUnavailable, open_rerun
+from .rerun_log import open_rerun
 
 log = logging.getLogger("objrec.detect")
 PROG = "objrec-detect"
