@@ -17,7 +17,7 @@ import cv2
 import numpy as np
 
 from objrec_core import SourceSpec
-from objrec_ros.bags import TopicInfo, header_frame_id, header_stamp
+from objrec_ros.bags import TopicInfo, header_frame_id, header_stamp_ns
 from objrec_ros.decode import COMPRESSED_IMAGE, IMAGE, DecodeError, encoding_of, image_to_bgr, is_depth_encoding
 from objrec_ros.source import BagSource, Decoded
 
@@ -94,4 +94,4 @@ class ImageBagSource(BagSource):
         msgtype = self.topic_info.msgtype
         for log_time, message in self.recording.messages(self.topic_info.name, self.start, self.end):
             image = decode_picture(msgtype, message)
-            yield log_time, header_stamp(message, log_time), header_frame_id(message), image
+            yield log_time, header_stamp_ns(message, log_time), header_frame_id(message), image

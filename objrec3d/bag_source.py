@@ -17,7 +17,7 @@ from collections.abc import Iterator
 from typing import Any
 
 from objrec_core import SourceSpec, Str
-from objrec_ros.bags import TopicInfo, header_frame_id, header_stamp
+from objrec_ros.bags import TopicInfo, header_frame_id, header_stamp, header_stamp_ns
 from objrec_ros.decode import (
     CAMERA_INFO,
     IMAGE,
@@ -154,7 +154,7 @@ class CloudBagSource(BagSource):
         if self.info_topic is None:
             for log_time, message in self.recording.messages(self.topic_info.name, self.start, self.end):
                 cloud = as_point_cloud(pointcloud2_arrays(message))
-                yield log_time, header_stamp(message, log_time), header_frame_id(message), cloud
+                yield log_time, header_stamp_ns(message, log_time), header_frame_id(message), cloud
             return
         yield from self._depth_frames()
 
@@ -167,7 +167,7 @@ class CloudBagSource(BagSource):
         def make(log_time: int, depth: Any, depth_info: Any, color: Any) -> Decoded:
             rgb = None if color is None else image_to_rgb(color)
             cloud = as_point_cloud(depth_cloud(depth, depth_info, rgb))
-            return log_time, header_stamp(depth, log_time), header_frame_id(depth), cloud
+            return log_time, header_stamp_ns(depth, log_time), header_frame_id(depth), cloud
 
         def nearest(stamp: float, later: tuple[float, Any] | None) -> Any:
             options = [c for c in (previous, later) if c is not None]

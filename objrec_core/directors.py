@@ -112,7 +112,8 @@ class _Director:
         self.system.set_modules([m for m in self.system.modules if not isinstance(m, Detector)] + [detector])
 
     def _header(self, frame: Frame) -> Header:
-        header = Header(seq=self._seq, stamp=frame.stamp, frame_id=frame.frame_id or self.frame_id)
+        header = Header(seq=self._seq, stamp=frame.stamp, frame_id=frame.frame_id or self.frame_id,
+                        stamp_ns=frame.stamp_ns)
         self._seq += 1
         return header
 

@@ -17,23 +17,35 @@ from typing import Any, ClassVar
 
 @dataclass(frozen=True)
 class Header:
-    """``std_msgs/Header``: sequence number, time stamp (seconds since the epoch) and frame id."""
+    """``std_msgs/Header``: sequence number, time stamp (seconds since the epoch) and frame id.
+
+    ``stamp_ns``, where the source knows it (a ROS message's own stamp), is the exact time: a float of seconds
+    since 1970 keeps only about a quarter of a microsecond, and a detection must carry its image's stamp to
+    the nanosecond for a ROS consumer to pair them.
+    """
 
     seq: int = 0
     stamp: float = 0.0
     frame_id: str = ""
+    stamp_ns: int | None = None
 
     def to_dict(self) -> dict[str, Any]:
-        secs = math.floor(self.stamp)
-        nsecs = min(round((self.stamp - secs) * 1e9), 999_999_999)
+        if self.stamp_ns is not None:
+            secs, nsecs = divmod(self.stamp_ns, 1_000_000_000)
+        else:
+            secs = math.floor(self.stamp)
+            nsecs = min(round((self.stamp - secs) * 1e9), 999_999_999)
         return {"seq": self.seq, "stamp": {"secs": secs, "nsecs": nsecs}, "frame_id": self.frame_id}
 
     @classmethod
     def from_dict(cls, data: dict[str, Any]) -> Header:
         stamp = data.get("stamp", 0.0)
+        stamp_ns = None
         if isinstance(stamp, dict):
-            stamp = stamp.get("secs", 0) + stamp.get("nsecs", 0) * 1e-9
-        return cls(seq=int(data.get("seq", 0)), stamp=float(stamp), frame_id=str(data.get("frame_id", "")))
+            stamp_ns = int(stamp.get("secs", 0)) * 1_000_000_000 + int(stamp.get("nsecs", 0))
+            stamp = stamp_ns / 1e9
+        return cls(seq=int(data.get("seq", 0)), stamp=float(stamp), frame_id=str(data.get("frame_id", "")),
+                   stamp_ns=stamp_ns)
 
 
 def message_to_dict(message: Any) -> Any:

@@ -27,7 +27,8 @@ class SourceError(RuntimeError):
 @dataclass
 class Frame:
     """One input frame: its data, when it was taken, its number, where it came from, ground truth where the
-    source knows it, and the coordinate frame it is in (``frame_id``, as a ROS header has it)."""
+    source knows it, the coordinate frame it is in (``frame_id``, as a ROS header has it), and the exact time
+    in nanoseconds where the source has one (``stamp_ns``: a recorded message's own stamp)."""
 
     data: Any
     stamp: float = field(default_factory=time.time)
@@ -35,6 +36,7 @@ class Frame:
     source: str = ""
     truth: Any = None
     frame_id: str = ""
+    stamp_ns: int | None = None
 
 
 _SCHEME = re.compile(r"^([A-Za-z][A-Za-z0-9+_.-]+):(.*)$", re.DOTALL)

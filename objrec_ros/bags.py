@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import logging
 import math
+import re
 from collections.abc import Iterable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
@@ -77,7 +78,11 @@ def _rosbags(path: Path) -> SimpleNamespace:
 
 def _one_line(exc: BaseException) -> str:
     """An exception as one line of text: rosbags' messages sometimes wrap tuples or span lines."""
-    text = " ".join(str(part) for part in exc.args) if exc.args else ""
+    def flat(part: object) -> str:  # rosbags wraps messages in tuples: show the text, not the tuple
+        return " ".join(flat(p) for p in part) if isinstance(part, tuple | list) else str(part)
+
+    text = flat(exc.args) if exc.args else ""
+    text = re.sub(r"\(['\"](.*?)['\"],\)", r"\1", text)  # a one-element tuple already formatted into the text
     text = " ".join(text.split()) or type(exc).__name__
     return text if len(text) <= 300 else text[:297] + "..."
 
@@ -334,6 +339,16 @@ def header_stamp(message: Any, log_time_ns: int) -> float:
     return log_time_ns / 1e9
 
 
+def header_stamp_ns(message: Any, log_time_ns: int) -> int:
+    """The header stamp of ``message`` in nanoseconds, exactly, or its log time where the header has none."""
+    stamp = getattr(getattr(message, "header", None), "stamp", None)
+    if stamp is not None:
+        exact = int(getattr(stamp, "sec", 0)) * 1_000_000_000 + int(getattr(stamp, "nanosec", 0))
+        if exact:
+            return exact
+    return int(log_time_ns)
+
+
 def header_frame_id(message: Any) -> str:
     """The header's frame_id, or "" for a message without a header."""
     return str(getattr(getattr(message, "header", None), "frame_id", "") or "")
@@ -352,6 +367,7 @@ def list_topics(path: str | Path) -> str:
     with open_recording(path) as recording:
         topics = recording.topics()
         table = topics_table(topics)
-        summary = (f"{recording.format}, {len(topics)} topics, {recording.message_count} messages, "
+        plural = "" if len(topics) == 1 else "s"
+        summary = (f"{recording.format}, {len(topics)} topic{plural}, {recording.message_count} messages, "
                    f"{recording.duration:.3f} s")
     return f"{table}\n{summary}"

@@ -27,8 +27,8 @@ from .decode import DecodeError
 
 log = logging.getLogger(__name__)
 
-#: One frame as a kind's source makes it: (log time ns, stamp s, frame_id, data).
-Decoded = tuple[int, float, str, Any]
+#: One frame as a kind's source makes it: (log time ns, header stamp ns, frame_id, data).
+Decoded = tuple[int, int, str, Any]
 
 
 def topic_names(topics: Sequence[TopicInfo]) -> str:
@@ -180,7 +180,7 @@ class BagSource(FrameSource):
                         delay = (log_time - log0) / 1e9 / self.pace - (time.monotonic() - wall0)
                         if delay > 0:
                             time.sleep(delay)
-                yield Frame(data, stamp, index, self.name, frame_id=frame_id)
+                yield Frame(data, stamp / 1e9, index, self.name, frame_id=frame_id, stamp_ns=stamp)
                 index += 1
         except DecodeError as exc:
             raise self.error(f"{self.topic_info.name}: message {index}: {exc}") from None

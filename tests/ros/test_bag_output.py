@@ -411,6 +411,8 @@ def test_copy_input_gives_both_topics_and_the_detections_carry_the_bag_stamps(pr
                                                            "/camera/image_raw"])]
             original_times = [t for c, t, _ in reader.messages() if c.topic == "/camera/image_raw"]
         assert [m[0] for m in images] == original_times
+        for (_, _, detection), (_, _, image) in zip(detections, images, strict=True):
+            assert detection["header"]["stamp"] == image["header"]["stamp"]  # to the nanosecond: pairable in ROS
         for (_, msgtype, image), original in zip(images, originals, strict=True):
             assert msgtype == "sensor_msgs/msg/Image"
             assert image["data"] == original["data"] and image["encoding"] == "bgr8"

@@ -103,6 +103,7 @@ def test_images_of_every_encoding_read_back_pixel_for_pixel(image_recording, dem
             assert np.array_equal(frame.data, want), (fmt, topic, i)
             assert frame.index == i
             assert frame.stamp == pytest.approx(head_s(i), abs=1e-6)  # the header stamp, not the log time
+            assert frame.stamp_ns == head_ns(i)  # exactly
             assert frame.frame_id == f"cam{topic}"
             assert frame.source == f"bag:{path},topic={topic}"
 
@@ -543,6 +544,7 @@ def test_broken_recordings_give_one_clear_line(case, fragment, bagmaker, tmp_pat
     assert str(caught.value).startswith(f"{path}: ")
     assert fragment in str(caught.value)
     assert "\n" not in str(caught.value)
+    assert "('" not in str(caught.value)  # rosbags' wrapped tuples are unwrapped
     assert isinstance(caught.value, SourceError)
 
 
