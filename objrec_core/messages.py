@@ -27,7 +27,7 @@ class Header:
     seq: int = 0
     stamp: float = 0.0
     frame_id: str = ""
-    stamp_ns: int | None = None
+    stamp_ns: int | None = field(default=None, compare=False)  # a refinement of stamp, not another time
 
     def to_dict(self) -> dict[str, Any]:
         if self.stamp_ns is not None:
