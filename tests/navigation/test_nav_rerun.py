@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import importlib.util
 import itertools
 import math
 import sys
@@ -13,7 +14,6 @@ import pytest
 
 pa = pytest.importorskip("pyarrow")
 pytest.importorskip("rerun")
-from rerun.chunk import RrdReader  # noqa: E402
 
 import navigation  # noqa: E402
 from navigation.cli import main  # noqa: E402
@@ -28,31 +28,16 @@ MAP = str(DATA / "b5203.yaml")
 SECOND = 1_000_000_000  # the sim_time timeline is in nanoseconds
 
 
-def _cell(value: pa.Scalar) -> object:
-    if not value.is_valid:
-        return None
-    item = value.type.value_type if pa.types.is_list(value.type) else None
-    if item is not None and pa.types.is_fixed_size_list(item):
-        return value.values.flatten().to_numpy(zero_copy_only=False).reshape(-1, item.list_size)
-    if item is not None and pa.types.is_list(item) and pa.types.is_integer(item.value_type):
-        return [blob.values.to_numpy(zero_copy_only=False) for blob in value.values]
-    return value.as_py()
+def _load_rrd_rows():
+    """The shared .rrd reader (tests/rrd_rows.py), loaded by path: tests run with --import-mode=importlib."""
+    path = Path(__file__).resolve().parents[1] / "rrd_rows.py"
+    spec = importlib.util.spec_from_file_location("rrd_rows", path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
 
 
-def read_recording(path: Path) -> dict[str, list[dict[str, object]]]:
-    """Every entity's rows as dicts of column -> value (timelines as integers: ns), in log order."""
-    rows: dict[str, list[dict[str, object]]] = {}
-    for chunk in RrdReader(path).stream():
-        batch = chunk.to_record_batch()
-        columns = {}
-        for name in batch.schema.names[1:]:
-            column = batch.column(name)
-            if pa.types.is_timestamp(column.type) or pa.types.is_duration(column.type):
-                column = column.cast(pa.int64())
-            columns[name] = column
-        rows.setdefault(chunk.entity_path, []).extend(
-            {name: _cell(column[i]) for name, column in columns.items()} for i in range(batch.num_rows))
-    return rows
+read_recording = _load_rrd_rows().read_recording
 
 
 def summary_fields(text: str) -> dict[str, str]:
