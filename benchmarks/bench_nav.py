@@ -4,6 +4,8 @@
 
 Targets: a patrol with planning at >= 500x real time (simulated seconds per wall second), and a plan on
 the Willow Garage map (0.1 m cells, 566 x 608) in < 100 ms. The Willow figures need ../shared/data.
+The inspection patrol of examples/inspection_lab (objrec-inspect) is measured with the camera rendering
+and detection at each pose (target >= 50x) and driving the same poses without them (target >= 500x).
 """
 
 from __future__ import annotations
@@ -15,6 +17,7 @@ import statistics
 import time
 from dataclasses import replace
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -115,10 +118,58 @@ def bench_planning(planner: Planner, n: int, seed: int, repeats: int = 3, label:
     return row
 
 
+INSPECTION_TARGET = 50.0
+LAB = ROOT / "examples" / "inspection_lab"
+
+
+def bench_inspection(laps: int) -> dict:
+    """The example lab's mission with its tasks (camera frames, 2D and 3D detection), then the same poses
+    driven with no tasks. A one-lap run first warms the imports the first 3D fit needs (SciPy)."""
+    from objrec_apps.inspection import Inspection, open_inspection
+
+    def make(n: int) -> Inspection:
+        return open_inspection(LAB / "mission.yaml", LAB / "lab.yaml", LAB / "lab.world.yaml", laps=n)
+
+    make(1).run(handle_sigint=False)
+    inspection = make(laps)
+    frames: list[float] = []
+    capture = inspection.machine.camera
+
+    def timed_capture() -> Any:
+        t0 = time.perf_counter()
+        frame = capture()
+        frames.append(time.perf_counter() - t0)
+        return frame
+
+    inspection.machine.camera = timed_capture
+    inspection.sim.events.keep = True
+    summary = inspection.run(handle_sigint=False)
+    detections = inspection.sim.events.of_type("detection")
+    statuses = [v["status"] for visit in inspection.report.visits for v in visit["expected"]]
+    row = {"sim": summary.sim_time, "wall": summary.wall_time, "speed": summary.speedup, "frames": len(frames),
+           "render_ms": 1000 * statistics.mean(frames), "visits": len(inspection.report.visits)}
+    print(f"inspection patrol, examples/inspection_lab ({laps} laps, {row['visits']} visits, {len(frames)} camera "
+          f"frames, {len(detections)} detections; expected objects: {statuses.count('present')} present of "
+          f"{len(statuses)}; {summary.collisions} collisions)")
+    print(f"  with camera and detection: {row['sim']:.0f} s simulated in {row['wall']:.2f} s wall = "
+          f"{row['speed']:.0f}x real time (target {INSPECTION_TARGET:.0f}x: {row['speed'] / INSPECTION_TARGET:.1f}x "
+          f"the target); rendering {row['render_ms']:.1f} ms per 640x480 frame")
+    plain = make(laps)
+    machine = PatrolMachine(plain.sim, plain.machine.goals, None, max_laps=laps)
+    summary = run_patrol(machine, handle_sigint=False)
+    row["plain_speed"] = summary.speedup
+    print(f"  the same poses without tasks: {summary.sim_time:.0f} s simulated in {summary.wall_time:.3f} s wall = "
+          f"{summary.speedup:.0f}x real time (target {SPEED_TARGET:.0f}x: {summary.speedup / SPEED_TARGET:.1f}x the "
+          f"target); {summary.collisions} collisions")
+    return row
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--laps", type=int, default=20, help="laps of the B5.2.03 patrol (default 20)")
     parser.add_argument("--plans", type=int, default=100, help="random plans on Willow (default 100)")
+    parser.add_argument("--inspection-laps", type=int, default=5,
+                        help="laps of the example inspection mission (default 5)")
     parser.add_argument("--shared-data", type=Path,
                         default=Path(os.environ.get("OBJREC_SHARED_DATA", ROOT.parent / "shared" / "data")))
     args = parser.parse_args()
@@ -132,6 +183,7 @@ def main() -> None:
                      station=DockingStation.in_front_of(poses.station))
     bench_patrol(f"B5.2.03 (shipped poses, {len(poses.goals)} goals)", sim, list(poses.goals), poses.station,
                  args.laps)
+    bench_inspection(args.inspection_laps)
 
     willow_yaml = args.shared_data / "maps/willow_2010/willow-2010-02-18-0.10.yaml"
     if not willow_yaml.is_file():

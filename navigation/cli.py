@@ -9,10 +9,14 @@ from __future__ import annotations
 import argparse
 import logging
 import math
+import signal
 import sys
+import threading
 from collections.abc import Sequence
 from dataclasses import replace
 from pathlib import Path
+from types import FrameType
+from typing import Any
 
 from rerunio import RerunUnavailable
 
@@ -20,6 +24,7 @@ from .battery import LaptopBatteryParams, RobotBatteryParams, kobuki_percent, ko
 from .diagram import write_diagram
 from .docking import DockingStation
 from .geometry import Pose2D
+from .localization import LOCALIZATION_MODES
 from .maps import MapError, load_map
 from .patrol import PatrolMachine
 from .poses import PoseFileError, load_poses
@@ -85,6 +90,9 @@ def build_parser() -> argparse.ArgumentParser:
     sim.add_argument("--seed", type=int, default=0, help="random seed for sensor noise (default 0)")
     sim.add_argument("--odom-noise", type=float, default=0.0, metavar="FRACTION",
                      help="relative odometry noise per step, e.g. 0.02 (default 0)")
+    sim.add_argument("--localization", choices=LOCALIZATION_MODES, default="exact",
+                     help="pose the navigation drives on: exact (the true pose, default), amcl (a particle filter "
+                          "matching laser scans to the map), odometry (dead reckoning alone)")
     sim.add_argument("--dt", type=_positive, default=0.1, metavar="SECONDS", help="time step (default 0.1)")
     sim.add_argument("--realtime", action="store_true", help="run at wall-clock speed instead of flat out")
     sim.add_argument("--margin", type=float, default=0.10, metavar="METRES",
@@ -119,11 +127,20 @@ def format_summary(summary: Summary) -> str:
         ("goals", f"{summary.goals_reached} reached, {summary.goals_aborted} aborted, "
                   f"{summary.goals_preempted} preempted"),
         ("distance", f"{summary.distance:.1f} m (odometry drifted {summary.odometry_drift:.2f} m)"),
+        ("localization", _format_localization(summary)),
         ("collisions", str(summary.collisions)),
         ("robot battery", f"{summary.robot_battery:.1f} %"),
         ("laptop battery", f"{summary.laptop_battery:.1f} %"),
     ]
     return "\n".join(f"{k + ':':16s}{v}" for k, v in rows)
+
+
+def _format_localization(summary: Summary) -> str:
+    if summary.localization == "exact":
+        return "exact (navigation sees the true pose)"
+    updates = f", {summary.localization_updates} filter updates" if summary.localization == "amcl" else ""
+    return (f"{summary.localization}: estimate off by {summary.localization_error_mean:.3f} m on average, "
+            f"{summary.localization_error_max:.3f} m at most{updates}")
 
 
 def _config(args: argparse.Namespace) -> SimConfig:
@@ -138,20 +155,47 @@ def _config(args: argparse.Namespace) -> SimConfig:
         robot_battery=robot_params, robot_battery_percent=args.robot_battery,
         laptop_battery=LaptopBatteryParams(runtime_h=args.laptop_runtime, low_percent=args.laptop_battery_low),
         laptop_battery_percent=args.laptop_battery, laptop_plugged=args.laptop_plugged,
-        record_every=1 if args.render else 0)
+        record_every=1 if args.render else 0, localization=args.localization)
+
+
+class StartupSigint:
+    """Ctrl-C before the patrol runs (loading the map, setting up the planner) is remembered, not fatal.
+
+    The patrol then starts preempted and goes straight to SHUTDOWN, so the summary and the events file
+    are written as for a Ctrl-C later on; a second Ctrl-C gives up at once (KeyboardInterrupt).
+    """
+
+    def __init__(self) -> None:
+        self.count = 0
+        self._previous: Any = None
+
+    def __enter__(self) -> StartupSigint:
+        if threading.current_thread() is threading.main_thread():
+            self._previous = signal.signal(signal.SIGINT, self._handle)
+        return self
+
+    def _handle(self, _signum: int, _frame: FrameType | None) -> None:
+        self.count += 1
+        if self.count > 1:
+            raise KeyboardInterrupt
+
+    def __exit__(self, *_exc: object) -> None:
+        if self._previous is not None:
+            signal.signal(signal.SIGINT, self._previous)
 
 
 def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     try:
-        return _run(parser, args)
+        with StartupSigint() as early:
+            return _run(parser, args, early)
     except KeyboardInterrupt:
         print(f"{PROG}: interrupted twice, stopped without shutting down cleanly", file=sys.stderr)
         return 130
 
 
-def _run(parser: argparse.ArgumentParser, args: argparse.Namespace) -> int:
+def _run(parser: argparse.ArgumentParser, args: argparse.Namespace, early: StartupSigint | None = None) -> int:
     logging.basicConfig(level=logging.WARNING - 10 * min(args.verbose, 2), stream=sys.stderr,
                         format="%(levelname)s %(name)s: %(message)s")
     if args.laps is not None and args.laps < 1:
@@ -202,6 +246,8 @@ def _run(parser: argparse.ArgumentParser, args: argparse.Namespace) -> int:
         if args.events:
             sim.events.open(args.events)
         sim.events.keep = False  # the command streams events; holding hours of them in memory helps nobody
+        if early is not None and early.count:
+            machine.request_preempt("SIGINT")  # Ctrl-C came during start-up
         states: list[tuple[float, str]] = []
         if args.render:
             machine.state_listeners.append(lambda m: states.append((sim.clock.now, m.entering)))

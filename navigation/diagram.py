@@ -1,9 +1,10 @@
 """Draw the patrol machine as a Mermaid state diagram, active states marked, like smach_viewer's figure.
 
 The drawing is generated from the same state and transition tables the machine is built from, so it
-cannot drift from the code. Mermaid cannot draw an arrow out of a nested state to an outer one, so such
-transitions start at the outer state that contains their source (as smach_viewer draws a container's
-outcomes), with the inner source named in the label.
+cannot drift from the code, and states added to a machine (tasks at poses, monitors) are drawn too.
+Mermaid cannot draw an arrow out of a nested state to an outer one, so such transitions start at the
+outer state that contains their source (as smach_viewer draws a container's outcomes), with the inner
+source named in the label.
 """
 
 from __future__ import annotations
@@ -13,15 +14,15 @@ from collections.abc import Iterable
 from pathlib import Path
 from typing import Any
 
-from .patrol import OUTCOME, SEP, SHUTDOWN, patrol_states, patrol_transitions
+from .patrol import OUTCOME, SEP, SHUTDOWN, PatrolMachine, patrol_states, patrol_transitions
 
 INDENT = "    "
 
 
-def _edges(n_poses: int) -> dict[str, list[tuple[str, str, str]]]:
+def _edges(transitions: list[dict[str, Any]]) -> dict[str, list[tuple[str, str, str]]]:
     """Transitions grouped by the composite state in which they are drawn ('' = top level)."""
     grouped: dict[tuple[str, str, str, str], list[str]] = defaultdict(list)
-    for t in patrol_transitions(n_poses):
+    for t in transitions:
         if t["source"] == "initial":
             continue
         src, dst = t["source"].split(SEP), t["dest"].split(SEP)
@@ -69,11 +70,21 @@ def _emit(states: list[Any], scope: str, edges: dict[str, list[tuple[str, str, s
         lines.append(f"{pad}{a} --> {b} : {label}")
 
 
-def mermaid(n_poses: int, active: Iterable[str] = ()) -> str:
-    """Mermaid ``stateDiagram-v2`` text of the machine for ``n_poses`` goals; ``active`` states are marked."""
+def _tables(machine: int | PatrolMachine) -> tuple[list[dict[str, Any]], list[dict[str, Any]]]:
+    if isinstance(machine, PatrolMachine):
+        return machine.states_table, machine.transitions_table
+    return patrol_states(machine), patrol_transitions(machine)
+
+
+def mermaid(machine: int | PatrolMachine, active: Iterable[str] = ()) -> str:
+    """Mermaid ``stateDiagram-v2`` text of a machine (or of the plain patrol of that many goals).
+
+    ``active`` states are marked.
+    """
     active = set(active)
+    states, transitions = _tables(machine)
     lines = ["stateDiagram-v2", f"{INDENT}[*] --> MONITORED_PATROL"]
-    _emit(patrol_states(n_poses), "", _edges(n_poses), 1, lines, active)
+    _emit(states, "", _edges(transitions), 1, lines, active)
     lines.append(f"{INDENT}{SHUTDOWN} --> [*] : {OUTCOME}")
     marked = sorted({a.split(SEP)[-1] for a in active})
     lines.append(f"{INDENT}classDef active stroke:#c00,stroke-width:4px,font-weight:bold")
@@ -83,13 +94,13 @@ def mermaid(n_poses: int, active: Iterable[str] = ()) -> str:
     return "\n".join(lines) + "\n"
 
 
-def write_diagram(path: str | Path, n_poses: int, active: Iterable[str] = ()) -> Path:
+def write_diagram(path: str | Path, machine: int | PatrolMachine, active: Iterable[str] = ()) -> Path:
     """Write the diagram; a ``.md`` file gets a fenced mermaid block, anything else the bare text.
 
     The file is replaced atomically, so a viewer polling it never reads half a diagram.
     """
     path = Path(path)
-    text = mermaid(n_poses, active)
+    text = mermaid(machine, active)
     if path.suffix.lower() == ".md":
         text = "```mermaid\n" + text + "```\n"
     tmp = path.with_name(path.name + ".tmp")

@@ -14,6 +14,11 @@ class only supplies what each state *does* when entered or left. Names and outco
   interrupted.
 * ``SHUTDOWN`` stops the robot; the machine's outcome is then ``shutdown``.
 
+States of your own are added without patching: tasks at the goal poses (:mod:`navigation.tasks`; each
+becomes ``POSE_i_<TASK>`` after ``POSE_i``) and monitor regions beside the battery monitors
+(:class:`Monitor`). The machine is built from its own tables (:attr:`PatrolMachine.states_table`,
+``transitions_table``), so the diagram and the event log show the added states too.
+
 Work is started on entry and cancelled on exit, and all waiting happens on the simulation clock.
 A preemption request (Ctrl-C) is sticky, like smach's: the running action is cancelled, and any state
 entered afterwards finishes at once with ``preempted``.
@@ -21,9 +26,11 @@ entered afterwards finishes at once with ``preempted``.
 
 from __future__ import annotations
 
+import copy
 import logging
-from collections.abc import Callable
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any
 
 from transitions.extensions.nesting import HierarchicalMachine, NestedState
@@ -32,6 +39,8 @@ from .clock import Timer
 from .geometry import Pose2D
 from .move_base import GoalStatus
 from .simulation import Simulation
+from .task_runner import TaskRunner
+from .tasks import StateTask, Visit
 
 log = logging.getLogger(__name__)
 
@@ -48,6 +57,10 @@ DOCK = f"{DOCK_AT_STATION}{SEP}DOCK"
 WAIT_UNTIL_CHARGED = "WAIT_UNTIL_CHARGED"
 UNDOCK = "UNDOCK"
 SHUTDOWN = "SHUTDOWN"
+#: Where a monitor's outcome may lead: the top-level states outside MONITORED_PATROL.
+MONITOR_DESTINATIONS = (DOCK_AT_STATION, WAIT_UNTIL_CHARGED, UNDOCK, SHUTDOWN)
+_BUILT_IN_TRIGGERS = ("start", "succeeded", "aborted", "preempted", "robot_battery_low", "laptop_battery_low",
+                      "charged")
 
 RESULT_TRIGGER = {GoalStatus.SUCCEEDED: "succeeded", GoalStatus.ABORTED: "aborted",
                   GoalStatus.PREEMPTED: "preempted"}
@@ -57,19 +70,60 @@ def pose_state(i: int) -> str:
     return f"POSE_{i}"
 
 
-def patrol_states(n_poses: int) -> list[dict[str, Any]]:
-    """The state tree, with the name of the entry/exit callback of each state."""
+@dataclass(frozen=True)
+class Monitor:
+    """A state of your own running beside the patrol inside MONITORED_PATROL, as the battery monitors do.
+
+    ``task`` watches (its ``state`` names the region); when it finishes with one of the words in
+    ``outcomes`` (its own trigger names, not succeeded/aborted/preempted, which the patrol's states use),
+    the machine leaves MONITORED_PATROL for the state given there (``SHUTDOWN``, ``DOCK_AT_STATION``, ...).
+    """
+
+    task: StateTask
+    outcomes: Mapping[str, str] = field(default_factory=dict)
+
+    @property
+    def state(self) -> str:
+        return self.task.state
+
+
+def task_state_names(tasks: Sequence[Sequence[str]], n_poses: int) -> list[list[str]]:
+    """The state names of the tasks at each pose: ``POSE_3_WAIT``, a repeated task gets ``_2``, ``_3``."""
+    if tasks and len(tasks) != n_poses:
+        raise ValueError(f"tasks are given for {len(tasks)} poses, the patrol has {n_poses}")
+    names: list[list[str]] = []
+    for i in range(n_poses):
+        seen: dict[str, int] = {}
+        row = []
+        for suffix in (tasks[i] if tasks else ()):
+            seen[suffix] = seen.get(suffix, 0) + 1
+            row.append(f"{pose_state(i)}_{suffix}" + (f"_{seen[suffix]}" if seen[suffix] > 1 else ""))
+        names.append(row)
+    return names
+
+
+def patrol_states(n_poses: int, tasks: Sequence[Sequence[str]] = (), monitors: Sequence[Monitor] = (),
+                  first_pose: int = 0) -> list[dict[str, Any]]:
+    """The state tree, with the name of the entry/exit callback of each state.
+
+    ``tasks[i]`` are the state names (``WAIT``, ``DETECT``) of the tasks done at pose ``i``, in order;
+    each ``monitors`` entry adds a region to MONITORED_PATROL.
+    """
     if n_poses < 1:
         raise ValueError("a patrol needs at least one goal pose")
-    poses = [{"name": pose_state(i), "on_enter": "start_patrol_goal", "on_exit": "stop_goal"}
-             for i in range(n_poses)]
+    poses: list[dict[str, Any]] = []
+    for i, row in enumerate(task_state_names(tasks, n_poses)):
+        poses.append({"name": pose_state(i), "on_enter": "start_patrol_goal", "on_exit": "stop_goal"})
+        poses += [{"name": name, "on_enter": "start_task", "on_exit": "stop_task"} for name in row]
+    added = [{"name": m.state, "on_enter": "start_task", "on_exit": "stop_task"} for m in monitors]
     return [
         {"name": "MONITORED_PATROL", "parallel": [
-            {"name": "PATROL", "children": poses, "initial": pose_state(0)},
+            {"name": "PATROL", "children": poses, "initial": pose_state(first_pose)},
             {"name": "ROBOT_BATTERY_MONITOR", "on_enter": "start_robot_battery_monitor",
              "on_exit": "stop_monitor"},
             {"name": "LAPTOP_BATTERY_MONITOR", "on_enter": "start_laptop_battery_monitor",
              "on_exit": "stop_laptop_monitor"},
+            *added,
         ]},
         {"name": "DOCK_AT_STATION", "initial": "MOVE_TO_STATION", "children": [
             {"name": "MOVE_TO_STATION", "on_enter": "start_move_to_station", "on_exit": "stop_goal"},
@@ -81,20 +135,63 @@ def patrol_states(n_poses: int) -> list[dict[str, Any]]:
     ]
 
 
-def patrol_transitions(n_poses: int) -> list[dict[str, Any]]:
+def _pose_transitions(n_poses: int, tasks: Sequence[Sequence[str]], first_pose: int,
+                      stop_on_failure: bool) -> list[dict[str, Any]]:
+    """Each pose's chain: the goal, then its tasks in order, then the next pose.
+
+    ``aborted`` anywhere in the chain skips the rest of it (Nav2's waypoint follower goes on to the next
+    waypoint), or ends the patrol with ``stop_on_failure``. The lap ends with the chain of the pose before
+    ``first_pose``; there the lap limit is checked first.
+    """
+    lap_end = (first_pose - 1) % n_poses
+    names = task_state_names(tasks, n_poses)
+    table: list[dict[str, Any]] = []
+    if not stop_on_failure and not any(names):  # the plain patrol, in its historical order
+        table.append({"trigger": ["succeeded", "aborted"], "source": f"{PATROL}{SEP}{pose_state(lap_end)}",
+                      "dest": SHUTDOWN, "conditions": "lap_limit_reached"})
+        return table + [{"trigger": ["succeeded", "aborted"], "source": f"{PATROL}{SEP}{pose_state(i)}",
+                         "dest": f"{PATROL}{SEP}{pose_state((i + 1) % n_poses)}"} for i in range(n_poses)]
+    for i in range(n_poses):
+        chain = [f"{PATROL}{SEP}{s}" for s in (pose_state(i), *names[i])]
+        after = f"{PATROL}{SEP}{pose_state((i + 1) % n_poses)}"
+        for k, state in enumerate(chain):
+            last = k == len(chain) - 1
+            ends = ["succeeded", "aborted"] if last else ["aborted"]
+            if stop_on_failure:
+                table.append({"trigger": "aborted", "source": state, "dest": SHUTDOWN,
+                              "conditions": "stop_on_failure"})
+            if i == lap_end:
+                table.append({"trigger": ends, "source": state, "dest": SHUTDOWN, "conditions": "lap_limit_reached"})
+            if not last:
+                table.append({"trigger": "succeeded", "source": state, "dest": chain[k + 1]})
+            table.append({"trigger": ends, "source": state, "dest": after})
+    return table
+
+
+def patrol_transitions(n_poses: int, tasks: Sequence[Sequence[str]] = (), first_pose: int = 0,
+                       stop_on_failure: bool = False, monitors: Sequence[Monitor] = ()) -> list[dict[str, Any]]:
     """Every transition; the first one whose conditions hold is taken, as ``transitions`` does."""
-    last = n_poses - 1
+    if not 0 <= first_pose < n_poses:
+        raise ValueError(f"first pose {first_pose} is not one of the {n_poses} poses")
     table: list[dict[str, Any]] = [{"trigger": "start", "source": "initial", "dest": MONITORED_PATROL}]
-    table.append({"trigger": ["succeeded", "aborted"], "source": f"{PATROL}{SEP}{pose_state(last)}",
-                  "dest": SHUTDOWN, "conditions": "lap_limit_reached"})
-    table += [{"trigger": ["succeeded", "aborted"], "source": f"{PATROL}{SEP}{pose_state(i)}",
-               "dest": f"{PATROL}{SEP}{pose_state((i + 1) % n_poses)}"} for i in range(n_poses)]
+    table += _pose_transitions(n_poses, tasks, first_pose, stop_on_failure)
     table += [
         {"trigger": "preempted", "source": PATROL, "dest": SHUTDOWN},
         {"trigger": "robot_battery_low", "source": ROBOT_MONITOR, "dest": DOCK_AT_STATION,
          "conditions": "has_station"},
         {"trigger": "robot_battery_low", "source": ROBOT_MONITOR, "dest": SHUTDOWN},
         {"trigger": "laptop_battery_low", "source": LAPTOP_MONITOR, "dest": SHUTDOWN},
+    ]
+    for monitor in monitors:
+        for trigger, dest in monitor.outcomes.items():
+            if trigger in _BUILT_IN_TRIGGERS:
+                raise ValueError(f"monitor {monitor.state}: outcome {trigger!r} is a trigger of the patrol's own "
+                                 "states; give the monitor's outcome a word of its own")
+            if dest not in MONITOR_DESTINATIONS:
+                raise ValueError(f"monitor {monitor.state}: outcome {trigger!r} leads to {dest!r}, which is not "
+                                 f"one of {', '.join(MONITOR_DESTINATIONS)}")
+            table.append({"trigger": trigger, "source": f"{MONITORED_PATROL}{SEP}{monitor.state}", "dest": dest})
+    table += [
         {"trigger": "succeeded", "source": MOVE_TO_STATION, "dest": DOCK},
         {"trigger": "succeeded", "source": DOCK, "dest": WAIT_UNTIL_CHARGED},
         {"trigger": ["aborted", "preempted"], "source": DOCK_AT_STATION, "dest": SHUTDOWN},
@@ -137,11 +234,19 @@ class PatrolStats:
 
 
 class PatrolMachine:
-    """The patrol, driving a :class:`~navigation.simulation.Simulation`."""
+    """The patrol, driving a :class:`~navigation.simulation.Simulation`.
+
+    ``tasks[i]`` are done at pose ``i`` after its goal is reached, each as a state of its own; ``monitors``
+    run beside the battery monitors. ``first_pose`` is where PATROL starts (a lap ends with the pose before
+    it); with ``stop_on_failure`` an aborted goal or task ends the patrol. ``camera`` returns a frame of the
+    robot's camera for tasks that take pictures, and ``output_dir`` is where they save files.
+    """
 
     def __init__(self, sim: Simulation, goals: list[Pose2D] | tuple[Pose2D, ...], station_pose: Pose2D | None,
                  max_laps: int | None = None, resume_after_charging: bool = False,
-                 monitor_period: float = 1.0) -> None:
+                 monitor_period: float = 1.0, *, tasks: Sequence[Sequence[StateTask]] = (), first_pose: int = 0,
+                 stop_on_failure: bool = False, monitors: Sequence[Monitor] = (),
+                 camera: Callable[[], Any] | None = None, output_dir: str | Path | None = None) -> None:
         if not goals:
             raise ValueError("a patrol needs at least one goal pose")
         self.sim = sim
@@ -150,6 +255,10 @@ class PatrolMachine:
         self.max_laps = max_laps
         self.resume = resume_after_charging
         self.monitor_period = monitor_period
+        self.first_pose = first_pose
+        self._stop_on_failure = stop_on_failure
+        self.camera = camera
+        self.output_dir = Path(output_dir) if output_dir is not None else None
         self.stats = PatrolStats()
         self.entered: list[str] = []
         self.outcome: str | None = None
@@ -157,16 +266,37 @@ class PatrolMachine:
         self.preempt_reason = ""
         self.state_listeners: list[Callable[[PatrolMachine], None]] = []
         self.entering = ""
+        self.leaving = ""
         self._current_pose = 0
         self._resume_pose = 0
         self._token = 0
         self._unsubscribe: Callable[[], None] | None = None
         self._laptop_timer: Timer | None = None
         self._wait_timer: Timer | None = None
+        n = len(self.goals)
+        suffixes = [[t.state for t in row] for row in tasks]
+        self.states_table = patrol_states(n, suffixes, monitors, first_pose)
+        self.transitions_table = patrol_transitions(n, suffixes, first_pose, stop_on_failure, monitors)
+        self.runner = TaskRunner(self, task_state_names(suffixes, n), tasks, monitors, PATROL + SEP,
+                                 MONITORED_PATROL + SEP)
         self.machine = _Machine(
-            model=self, states=patrol_states(len(self.goals)), transitions=patrol_transitions(len(self.goals)),
+            model=self, states=copy.deepcopy(self.states_table), transitions=copy.deepcopy(self.transitions_table),
             initial="initial", auto_transitions=False, queued=True, send_event=True,
             ignore_invalid_triggers=True)
+
+    @property
+    def visits(self) -> list[Visit]:
+        """Every visit to a pose so far, the open one last (see :class:`~navigation.tasks.Visit`)."""
+        return self.runner.visits
+
+    @property
+    def visit_listeners(self) -> list[Callable[[Visit], None]]:
+        """Called with each visit when it ends (the next pose, docking or SHUTDOWN)."""
+        return self.runner.listeners
+
+    def believed_pose(self) -> Pose2D:
+        """Where the robot believes it is: what move_base drives on (the true pose without localisation)."""
+        return self.sim.pose_estimate()
 
     # -- bookkeeping ----------------------------------------------------------------------------------
     def record(self, what: str, name: str) -> None:
@@ -176,7 +306,11 @@ class PatrolMachine:
         if what == "enter":
             self.entering = name
             self.entered.append(name)
+        else:
+            self.leaving = name
         self.sim.events.emit(f"state_{what}", state=name)
+        if what == "enter":
+            self.runner.entered(name)
         if what == "enter":
             for listener in list(self.state_listeners):
                 listener(self)
@@ -221,6 +355,15 @@ class PatrolMachine:
     def lap_limit_reached(self, _event: Any = None) -> bool:
         return self.max_laps is not None and self.stats.laps >= self.max_laps
 
+    def stop_on_failure(self, _event: Any = None) -> bool:
+        return self._stop_on_failure
+
+    def pose_done(self, index: int) -> None:
+        """Pose ``index`` is done (its goal aborted, or its last task ended): count a lap at the lap's end."""
+        if index == (self.first_pose - 1) % len(self.goals):
+            self.stats.laps += 1
+            self.sim.events.emit("lap", laps=self.stats.laps)
+
     def prepare_resume(self, _event: Any = None) -> None:
         """Re-enter PATROL at the goal the low battery interrupted, not at POSE_0."""
         self.machine.get_state(PATROL).initial = pose_state(self._resume_pose)
@@ -228,7 +371,7 @@ class PatrolMachine:
     # -- running --------------------------------------------------------------------------------------
     def begin(self) -> None:
         """Enter MONITORED_PATROL (the machine is created in transitions' implicit ``initial`` state)."""
-        self.machine.get_state(PATROL).initial = pose_state(0)
+        self.machine.get_state(PATROL).initial = pose_state(self.first_pose)
         self.trigger("start")  # type: ignore[attr-defined]
 
     def request_preempt(self, reason: str = "preempted") -> None:
@@ -270,21 +413,22 @@ class PatrolMachine:
     def start_patrol_goal(self, _event: Any) -> None:
         index = int(self.entering.rsplit("_", 1)[1])
         self._current_pose = index
+        self.runner.begin_visit(index, self.goals[index], pose_state(index), self.stats.laps + 1)
         if self._preempted_on_entry():
             return
 
         def on_result(status: GoalStatus, _text: str) -> None:
             st = self.stats
             st.results.append((pose_state(index), status.value))
+            self.runner.goal_result(status.value, self.believed_pose())
             if status == GoalStatus.SUCCEEDED:
                 st.goals_reached += 1
             elif status == GoalStatus.ABORTED:
                 st.goals_aborted += 1
             else:
                 st.goals_preempted += 1
-            if status != GoalStatus.PREEMPTED and index == len(self.goals) - 1:
-                st.laps += 1
-                self.sim.events.emit("lap", laps=st.laps)
+            if status == GoalStatus.ABORTED or (status == GoalStatus.SUCCEEDED and not self.runner.has_tasks(index)):
+                self.pose_done(index)
             self.trigger(RESULT_TRIGGER[status])  # type: ignore[attr-defined]
 
         self._send(self.goals[index], pose_state(index), on_result)
@@ -305,6 +449,15 @@ class PatrolMachine:
                 self.stats.goals_preempted += 1
                 self.stats.results.append((goal.name, GoalStatus.PREEMPTED.value))
             self.sim.move_base.cancel_goal("state left")
+
+    # -- added states (tasks at poses, monitors) ----------------------------------------------------------
+    def start_task(self, _event: Any) -> None:
+        if self.runner.is_pose_task(self.entering) and self._preempted_on_entry():
+            return
+        self.runner.start(self.entering)
+
+    def stop_task(self, _event: Any) -> None:
+        self.runner.stop(self.leaving)
 
     # -- monitors -------------------------------------------------------------------------------------
     def start_robot_battery_monitor(self, _event: Any) -> None:

@@ -94,8 +94,10 @@ def load_poses(path: str | Path) -> PoseFile:
 
 
 def format_pose(pose: Pose2D) -> str:
-    qx, qy, qz, qw = quaternion_from_yaw(pose.yaw)
-    return ", ".join(repr(round(v, 10)) for v in (pose.x, pose.y, 0.0, qx, qy, qz, qw))
+    """One line of a pose file. Values are made plain floats first: the repr of a NumPy number
+    (``np.float64(1.5)``) is no number to :func:`load_poses` or to the ROS patrol."""
+    qx, qy, qz, qw = quaternion_from_yaw(float(pose.yaw))
+    return ", ".join(repr(round(float(v), 10)) for v in (pose.x, pose.y, 0.0, qx, qy, qz, qw))
 
 
 def save_poses(path: str | Path, goals: list[Pose2D] | tuple[Pose2D, ...], station: Pose2D | None = None,

@@ -40,6 +40,11 @@ class Summary:
     wall_time: float
     robot_battery: float
     laptop_battery: float
+    # How far the pose navigation drove on was from the true pose, per step: zero with "exact".
+    localization: str = "exact"
+    localization_error_mean: float = 0.0
+    localization_error_max: float = 0.0
+    localization_updates: int = 0
 
     @property
     def speedup(self) -> float:
@@ -54,11 +59,16 @@ class Summary:
             "collisions": self.collisions, "sim_time_s": round(self.sim_time, 1),
             "wall_time_s": round(self.wall_time, 3), "robot_battery_percent": round(self.robot_battery, 1),
             "laptop_battery_percent": round(self.laptop_battery, 1),
+            "localization": self.localization,
+            "localization_error_mean_m": round(self.localization_error_mean, 3),
+            "localization_error_max_m": round(self.localization_error_max, 3),
+            "localization_updates": self.localization_updates,
         }
 
 
 def summarize(machine: PatrolMachine, wall_time: float) -> Summary:
     sim, st = machine.sim, machine.stats
+    loc = sim.localizer
     return Summary(
         outcome=machine.outcome,
         final_states=tuple(machine.active_states()),
@@ -68,6 +78,10 @@ def summarize(machine: PatrolMachine, wall_time: float) -> Summary:
         collisions=sim.collisions,
         sim_time=sim.clock.now, wall_time=wall_time, robot_battery=sim.robot_battery.percentage,
         laptop_battery=sim.laptop_battery.percentage,
+        localization=sim.config.localization,
+        localization_error_mean=loc.errors.mean if loc is not None else 0.0,
+        localization_error_max=loc.errors.max if loc is not None else 0.0,
+        localization_updates=loc.updates if loc is not None else 0,
     )
 
 

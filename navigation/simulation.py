@@ -3,8 +3,10 @@
 One :meth:`Simulation.step` advances the world by a fixed time step: the active action (move_base, dock
 or undock) computes a velocity command, the base moves within its limits unless that would hit an
 obstacle (then it stops and the bump is counted once), odometry and both batteries are updated, and the
-clock fires whatever timers are due. Localisation is taken as perfect: the navigation sees the true pose,
-as if amcl had converged; the noisy odometry is kept alongside for anyone who wants it.
+clock fires whatever timers are due. What pose move_base drives on depends on ``SimConfig.localization``:
+the true pose (``exact``, the default, as if amcl had converged), the estimate of an amcl-like particle
+filter matching laser scans to the map (``amcl``), or odometry alone (``odometry``); see
+:mod:`navigation.localization`.
 """
 
 from __future__ import annotations
@@ -23,10 +25,12 @@ from .events import EventLog
 from .follower import FollowerParams
 from .geometry import Pose2D, wrap_angle
 from .laser import LaserParams, LaserScan, cast_scan
+from .localization import AmclParams, Localizer, make_localizer
 from .maps import OccupancyMap
 from .move_base import MoveBase, MoveBaseParams
 from .planner import Planner, PlannerParams
 from .robot import DiffDriveRobot, Odometry, RobotParams
+from .world import World
 
 log = logging.getLogger(__name__)
 
@@ -62,6 +66,8 @@ class SimConfig:
     unknown_is_obstacle: bool = True
     seed: int = 0
     record_every: int = 1  # keep the trajectory every N steps for pictures; 0 keeps none
+    localization: str = "exact"  # "exact" (true pose), "amcl" (particle filter on laser scans), "odometry"
+    amcl: AmclParams = field(default_factory=AmclParams)
 
 
 class Simulation:
@@ -69,15 +75,16 @@ class Simulation:
 
     def __init__(self, occ_map: OccupancyMap, start: Pose2D, config: SimConfig | None = None,
                  station: DockingStation | None = None, field_: ObstacleField | None = None,
-                 planner: Planner | None = None) -> None:
+                 planner: Planner | None = None, world: World | None = None) -> None:
         self.config = cfg = config or SimConfig()
         self.map = occ_map
         self.clock = SimClock(cfg.dt)
         self.events = EventLog(lambda: self.clock.now)
         self.rng = np.random.default_rng(cfg.seed)
         self.field = field_ or ObstacleField(occ_map, cfg.lethal_threshold, cfg.unknown_is_obstacle)
+        self.world = world  # objects and obstacles the map does not have: solid and seen by the laser
         radius = cfg.robot.radius
-        if self.field.collides(start.x, start.y, radius):
+        if self._collides(start.x, start.y, radius):
             raise StartPoseError(
                 f"start pose ({start.x:.3f}, {start.y:.3f}) puts the robot (radius {radius:g} m) "
                 "off the map or inside an obstacle")
@@ -86,8 +93,14 @@ class Simulation:
         self.start = start
         self.robot = DiffDriveRobot(start, cfg.robot)
         self.odom = Odometry(cfg.odom_linear_noise, cfg.odom_angular_noise, self.rng)
+        # The filter matches scans against what the map says (the planner's field), not the world's.
+        self.localizer: Localizer | None = make_localizer(
+            cfg.localization, field=self.planner.field, start=start, scan=self.scan, laser=cfg.laser,
+            params=cfg.amcl, rng=np.random.default_rng([cfg.seed, 1]), events=self.events,
+            now=lambda: self.clock.now)
         self.move_base = MoveBase(self.planner, self.clock, self.events, cfg.follower, cfg.move_base,
-                                  pose_source=lambda: self.robot.pose)
+                                  pose_source=self.pose_estimate)
+        self.move_base.use_laser(self.scan, cfg.laser)  # the local costmap sees what the map does not show
         self.robot_battery = RobotBattery(self.events, cfg.robot_battery, cfg.robot_battery_percent)
         self.laptop_battery = LaptopBattery(self.events, cfg.laptop_battery, cfg.laptop_battery_percent,
                                             cfg.laptop_plugged)
@@ -124,8 +137,23 @@ class Simulation:
         self.robot.stop()
         self.halted = True
 
-    def scan(self) -> LaserScan:
-        return cast_scan(self.field, self.robot.pose, self.config.laser, self.rng)
+    def scan(self, laser: LaserParams | None = None) -> LaserScan:
+        """A scan from the true pose; ``laser`` overrides the configured laser (amcl casts only its beams)."""
+        laser = laser or self.config.laser
+        scan = cast_scan(self.field, self.robot.pose, laser, self.rng)
+        if self.world is not None:
+            scan = self.world.add_to_scan(scan, self.robot.pose, self.clock.now, laser.noise, self.rng)
+        return scan
+
+    def _collides(self, x: float, y: float, radius: float) -> bool:
+        """The map's obstacles and, with a world, its objects and obstacles where they are now."""
+        if self.field.collides(x, y, radius):
+            return True
+        return self.world is not None and self.world.collides(x, y, radius, self.clock.now)
+
+    def pose_estimate(self) -> Pose2D:
+        """The pose navigation drives on: the true pose (``exact``) or the localizer's estimate."""
+        return self.robot.pose if self.localizer is None else self.localizer.estimate
 
     # -- stepping -----------------------------------------------------------------------------------
     def _command(self, pose: Pose2D, dt: float) -> tuple[float, float]:
@@ -137,7 +165,7 @@ class Simulation:
             return self.undock_action.control(pose, dt, self.in_contact)
         if self.teleop is not None and not self.move_base.active:
             return self.teleop
-        return self.move_base.control(pose, dt)
+        return self.move_base.control(pose if self.localizer is None else self.localizer.estimate, dt)
 
     def _deliver_action_results(self) -> None:
         for action in (self.dock_action, self.undock_action):
@@ -160,7 +188,7 @@ class Simulation:
             v = w = 0.0  # the motors have no power left
         x0, y0, yaw0 = robot.x, robot.y, robot.yaw
         x, y, yaw, nv, nw = robot.propose(v, w, dt)
-        if (x != x0 or y != y0) and self.field.collides(x, y, robot.params.radius):
+        if (x != x0 or y != y0) and self._collides(x, y, robot.params.radius):
             if not self.in_contact:
                 self.collisions += 1
                 self.collision_points.append((x0, y0))
@@ -170,12 +198,14 @@ class Simulation:
             x, y, nv = x0, y0, 0.0
             robot.accept(x, y, yaw, 0.0, nw)
         else:
-            if self.in_contact and not self.field.collides(x, y, robot.params.radius + CONTACT_RELEASE):
+            if self.in_contact and not self._collides(x, y, robot.params.radius + CONTACT_RELEASE):
                 self.in_contact = False
             robot.accept(x, y, yaw, nv, nw)
         ds = math.hypot(x - x0, y - y0)
         self.distance += ds
         self.odom.update(math.copysign(ds, nv), wrap_angle(yaw - yaw0))
+        if self.localizer is not None:
+            self.localizer.step(self.odom.pose, robot.pose)
         self._update_dock_contact()
         moving = abs(nv) > 1e-3 or abs(nw) > 1e-3
         self.robot_battery.update(dt, moving)

@@ -39,5 +39,10 @@ class ImageKind(Kind):
         return [Outline(o.name, polygon=np.asarray(o.polygon.xy(), dtype=np.float32).reshape(-1, 2))
                 for o in objects.objects]
 
+    def from_rgbd(self, color: Any, depth: Any, fx: float, fy: float, cx: float, cy: float) -> np.ndarray:
+        """The colour image (a copy): image pipelines need nothing else of an RGB-D frame."""
+        self.check_frame(color)
+        return np.array(color, dtype=np.uint8, copy=True)
+
     def copy_frame(self, data: Any) -> Any:
         return data.copy() if isinstance(data, np.ndarray) else super().copy_frame(data)

@@ -48,6 +48,23 @@ class CloudKind(Kind):
         self.check_frame(data)
         return data.points
 
+    def from_rgbd(self, color: Any, depth: Any, fx: float, fy: float, cx: float, cy: float) -> PointCloud:
+        """An organized cloud in the optical frame (x right, y down, z forward), RGB colours, NaN for no return."""
+        z = np.asarray(depth, dtype=np.float32)
+        rgb = np.asarray(color)
+        if z.ndim != 2 or rgb.shape[:2] != z.shape or rgb.ndim != 3 or rgb.shape[2] != 3:
+            raise FrameKindError(f"expected H x W depth and H x W x 3 colour of the same size, got {z.shape} and "
+                                 f"{rgb.shape}")
+        h, w = z.shape
+        z = np.where(z > 0, z, np.float32(np.nan))  # 0 is "no return" in depth images too
+        u = (np.arange(w, dtype=np.float32) - np.float32(cx)) / np.float32(fx)
+        v = (np.arange(h, dtype=np.float32) - np.float32(cy)) / np.float32(fy)
+        points = np.empty((h, w, 3), np.float32)
+        np.multiply(z, u[None, :], out=points[..., 0])
+        np.multiply(z, v[:, None], out=points[..., 1])
+        points[..., 2] = z
+        return PointCloud(points, np.ascontiguousarray(rgb[..., ::-1], dtype=np.uint8), w, h)
+
     def copy_frame(self, data: Any) -> Any:
         return data.copy() if isinstance(data, PointCloud) else super().copy_frame(data)
 

@@ -163,3 +163,26 @@ def test_unwritable_output_is_an_error_not_a_traceback(tmp_path, option, capsys)
     assert main([POSES, "--map", MAP, "--laps", "1", option, str(target)]) == 2
     err = capsys.readouterr().err
     assert err.startswith("objrec-patrol: error: ") and "out.md" in err and err.count("\n") == 1
+
+
+def test_ctrl_c_during_start_up_still_writes_the_events_and_summary(tmp_path, capsys, monkeypatch):
+    """A real SIGINT while the map loads: the patrol starts preempted and ends in SHUTDOWN, files written."""
+    import navigation.cli as cli
+
+    real_load_map = cli.load_map
+
+    def load_map_interrupted(path):
+        os.kill(os.getpid(), signal.SIGINT)
+        return real_load_map(path)
+
+    monkeypatch.setattr(cli, "load_map", load_map_interrupted)
+    events = tmp_path / "e.jsonl"
+    assert main([POSES, "--map", MAP, "--events", str(events)]) == 0
+    fields = summary_fields(capsys.readouterr().out)
+    assert fields["outcome"] == "shutdown (SIGINT)"
+    assert fields["final state"] == "SHUTDOWN"
+    lines = [json.loads(line) for line in events.read_text().splitlines()]
+    assert lines[0] == {"t": 0.0, "type": "preempt_requested", "reason": "SIGINT"}
+    assert lines[-1] == {"t": lines[-1]["t"], "type": "outcome", "outcome": "shutdown"}
+    assert lines[-1]["t"] < 1.0
+    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler

@@ -71,3 +71,26 @@ def test_save_and_load_round_trip(tmp_path):
 @pytest.mark.parametrize("yaw", [0.0, 1.0, -2.5, math.pi - 1e-6])
 def test_quaternion_yaw_round_trip(yaw):
     assert yaw_from_quaternion(*quaternion_from_yaw(yaw)) == pytest.approx(yaw)
+
+
+def test_numpy_numbers_are_saved_as_plain_numbers(tmp_path):
+    """Poses computed with NumPy (np.float64 fields) used to be written as 'np.float64(1.25)'."""
+    import numpy as np
+
+    goals = [Pose2D(np.float64(1.25), np.float64(-2.5), np.float64(0.75)), Pose2D(np.float32(3.0), 4, 0)]
+    path = save_poses(tmp_path / "np.txt", goals, station=Pose2D(np.float64(0.5), np.float64(0.5), np.float64(0)))
+    assert "np." not in path.read_text()
+    loaded = load_poses(path)
+    assert [(g.x, g.y) for g in loaded.goals] == [(1.25, -2.5), (3.0, 4.0)]
+    assert loaded.goals[0].yaw == pytest.approx(0.75)
+    assert loaded.station == Pose2D(0.5, 0.5, 0.0)
+
+
+def test_a_utf8_byte_order_mark_is_accepted(tmp_path):
+    """Editors on Windows start UTF-8 files with a BOM; the first pose (or comment) must still parse."""
+    path = tmp_path / "bom.txt"
+    path.write_bytes(b"\xef\xbb\xbf1.5, 2, 0, 0, 0, 0, 1\nstation_pose: 0, 0, 0, 0, 0, 0, 1\n")
+    loaded = load_poses(path)
+    assert loaded.goals == (Pose2D(1.5, 2.0, 0.0),) and loaded.station == Pose2D(0.0, 0.0, 0.0)
+    path.write_bytes(b"\xef\xbb\xbf# comment\n1, 2, 0, 0, 0, 0, 1\n")
+    assert load_poses(path).goals == (Pose2D(1.0, 2.0, 0.0),)

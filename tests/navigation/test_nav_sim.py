@@ -178,11 +178,29 @@ def test_goal_off_the_map_is_aborted_at_once():
     assert got == [(GoalStatus.ABORTED, "goal is outside the map")]
 
 
-def test_unmapped_obstacle_makes_move_base_recover_then_abort():
-    """A box that is not on the map blocks the only way; move_base bumps, recovers twice, gives up."""
+def test_a_closed_doorway_is_seen_and_ends_in_recovery_then_abort_without_a_bump():
+    """A wall the map still shows with a doorway: the laser's local costmap sees it closed, move_base stops short,
+    runs its three recovery behaviours in order and gives up, never touching the wall."""
     mapped = room(6.0, 3.0, boxes=((2.9, 0.0, 3.1, 1.0), (2.9, 2.0, 3.1, 3.0)))  # a wall with a doorway
     world = room(6.0, 3.0, boxes=((2.9, 0.0, 3.1, 3.0),))  # ... that someone has since closed
     sim = Simulation(world, Pose2D(1.0, 1.5, 0.0), planner=Planner(ObstacleField(mapped)))
+    got: list[tuple[GoalStatus, str]] = []
+    sim.move_base.send_goal(Pose2D(5.0, 1.5, 0.0), lambda s, t: got.append((s, t)))
+    sim.run_for(120.0)
+    assert got == [(GoalStatus.ABORTED, "no path round the obstacles the map does not show (after 3 recovery "
+                                        "attempts)")]
+    assert [(r["attempt"], r["behaviour"]) for r in sim.events.of_type("recovery")] == [
+        (1, "clear_costmap"), (2, "rotate"), (3, "back_up")]
+    assert sim.collisions == 0
+    assert sim.robot.x < 2.9 - 0.18  # stopped short of the wall
+
+
+def test_without_its_laser_move_base_bumps_recovers_then_aborts():
+    """The same room driven blind (no costmap): the bump stops the robot, and no progress ends the goal."""
+    mapped = room(6.0, 3.0, boxes=((2.9, 0.0, 3.1, 1.0), (2.9, 2.0, 3.1, 3.0)))
+    world = room(6.0, 3.0, boxes=((2.9, 0.0, 3.1, 3.0),))
+    sim = Simulation(world, Pose2D(1.0, 1.5, 0.0), planner=Planner(ObstacleField(mapped)))
+    sim.move_base.scan_source = None
     got: list[tuple[GoalStatus, str]] = []
     sim.move_base.send_goal(Pose2D(5.0, 1.5, 0.0), lambda s, t: got.append((s, t)))
     sim.run_for(120.0)

@@ -1,0 +1,97 @@
+"""The ``detect`` task: run an objrec parameter file on the camera frames taken at a pose.
+
+It is registered with the patrol's task registry (:func:`navigation.tasks.register_task`) like any task
+of one's own; the navigation package itself knows nothing of recognition. Frames reach the parameter
+file's kind through the kind contract (``Kind.from_rgbd``), so a 2D file gets the colour image and a 3D
+file an organized point cloud, and each object found is placed in the map (:mod:`.locate`).
+"""
+
+from __future__ import annotations
+
+import logging
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from navigation.tasks import REQUIRED, Capture, PoseTask, TaskContext, TaskOption, TaskSpecError, register_task
+from objrec_core import (
+    Kind,
+    ParameterFileError,
+    PipelineError,
+    RecognitionSystem,
+    UnknownModuleError,
+    build_system,
+    get_kind,
+)
+
+from .locate import Sighting, locate
+
+log = logging.getLogger(__name__)
+
+
+def _load(path: Path) -> tuple[RecognitionSystem, Kind]:
+    """The system of a parameter file, refused unless it detects something and its kind takes camera frames."""
+    try:
+        system = build_system(path)
+        kind = get_kind(system.kind) if system.kind else None
+    except (ParameterFileError, UnknownModuleError) as exc:
+        raise TaskSpecError(f"detect: field 'params': {exc}") from None
+    if kind is None or not system.detectors:
+        raise TaskSpecError(f"detect: field 'params': {path} has no detector, so nothing would be found")
+    probe = kind.from_rgbd(np.zeros((2, 2, 3), np.uint8), np.ones((2, 2), np.float32), 1.0, 1.0, 0.5, 0.5)
+    if probe is None:
+        raise TaskSpecError(f"detect: field 'params': {path} is of kind {kind.name!r}, which cannot take camera "
+                            "frames (its Kind has no from_rgbd)")
+    return system, kind
+
+
+@register_task
+class DetectTask(PoseTask):
+    """Find objects with a parameter file in this visit's frames (after a look_around or photo), or in a new one."""
+
+    kind = "detect"
+    state = "DETECT"
+    summary = "run an objrec parameter file on the camera frames taken here, place what it finds in the map"
+    options = {  # noqa: RUF012 - declarations, never mutated
+        "params": TaskOption(REQUIRED, "the parameter file (made with objrec-define)", "path"),
+        "settle": TaskOption(0.3, "seconds to stand still before taking a frame when none was taken here",
+                             min=0.0, max=60.0),
+    }
+    positional = "params"
+
+    def __init__(self, **values: Any) -> None:
+        super().__init__(**values)
+        self.system, self.data_kind = _load(Path(self.values["params"]))
+        self.labels = sorted({d.object_name for d in self.system.detectors})
+
+    def describe(self) -> str:
+        return f"detect {Path(self.values['params']).name}"
+
+    def start(self, ctx: TaskContext) -> None:
+        if ctx.visit is not None and ctx.visit.frames:
+            self._run(ctx, list(ctx.visit.frames))
+        elif ctx.machine.camera is None:
+            ctx.fail("this patrol has no camera")
+        else:
+            ctx.after(self.values["settle"], lambda: self._run(ctx, [ctx.capture("detect")]))
+
+    def _run(self, ctx: TaskContext, captures: list[Capture]) -> None:
+        sightings: list[Sighting] = []
+        kind, system = self.data_kind, self.system
+        try:
+            for shot in captures:
+                f = shot.frame
+                result = system.process(kind.from_rgbd(f.color, f.depth, f.fx, f.fy, f.cx, f.cy))
+                sightings += locate(kind, system.object_array_type, list(result.objects), f, shot.pose,
+                                    shot.label, shot.t)
+        except PipelineError as exc:
+            ctx.fail(f"{Path(self.values['params']).name}: {exc}")
+            return
+        if ctx.visit is not None:
+            ctx.visit.data.setdefault("sightings", []).extend(sightings)
+            ctx.visit.data.setdefault("looked_for", set()).update(self.labels)
+        for s in sightings:
+            ctx.emit("detection", params=Path(self.values["params"]).name, **s.as_dict())
+        ctx.succeed(f"{len(sightings)} object(s) in {len(captures)} frame(s)", objects=len(sightings),
+                    frames=len(captures))

@@ -1,0 +1,146 @@
+"""The picture of an inspection: the map, the route driven, the goals, and the verdict on each object.
+
+Objects of the world file are drawn as grey outlines where they should be; what was found is a filled
+dot at its map position (green when it is an expected object present, orange when moved, with an arrow
+from where it should have been, blue when nobody expected it); an expected object not found is a red
+cross. Obstacles the map does not know are brown outlines.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+
+import cv2
+import numpy as np
+
+from navigation.geometry import Pose2D
+from navigation.maps import OccupancyMap
+from navigation.world import World, WorldObject
+
+from .report import InspectionReport
+from .verdict import ABSENT, MOVED, PRESENT
+
+ROUTE = (200, 110, 20)
+GOAL = (120, 60, 60)
+OUTLINE = (150, 150, 150)
+OBSTACLE = (40, 90, 140)
+COLOURS = {PRESENT: (40, 160, 40), MOVED: (0, 140, 255), ABSENT: (30, 30, 220)}
+UNEXPECTED = (200, 80, 20)
+TEXT = (40, 40, 40)
+FONT = cv2.FONT_HERSHEY_SIMPLEX
+
+
+class _View:
+    """The known part of the map, scaled up; world metres to pixels."""
+
+    def __init__(self, occ_map: OccupancyMap, max_side: int) -> None:
+        known = np.argwhere(occ_map.data >= 0)
+        r0, c0 = known.min(axis=0) - 4
+        r1, c1 = known.max(axis=0) + 5
+        self.r0, self.c0 = max(0, int(r0)), max(0, int(c0))
+        self.r1, self.c1 = min(occ_map.height, int(r1)), min(occ_map.width, int(c1))
+        crop = occ_map.to_image()[occ_map.height - self.r1:occ_map.height - self.r0, self.c0:self.c1]
+        self.scale = max(1, max_side // max(crop.shape))
+        grey = cv2.resize(crop, None, fx=self.scale, fy=self.scale, interpolation=cv2.INTER_NEAREST)
+        self.image = cv2.cvtColor(grey, cv2.COLOR_GRAY2BGR)
+        self.map = occ_map
+        self.px_per_m = self.scale / occ_map.resolution
+
+    def px(self, x: float, y: float) -> tuple[int, int]:
+        gx, gy = self.map.world_to_grid(x, y)
+        return (round((gx - self.c0) * self.scale), round((self.r1 - gy) * self.scale))
+
+
+def _text(img: np.ndarray, text: str, at: tuple[int, int], colour: tuple[int, int, int], scale: float) -> None:
+    cv2.putText(img, text, at, FONT, scale, (255, 255, 255), 3, cv2.LINE_AA)
+    cv2.putText(img, text, at, FONT, scale, colour, 1, cv2.LINE_AA)
+
+
+def _outline(view: _View, img: np.ndarray, thing: WorldObject, colour: tuple[int, int, int]) -> None:
+    fp = thing.footprint()
+    if fp.is_circle:
+        cv2.circle(img, view.px(fp.x, fp.y), max(2, round(fp.radius * view.px_per_m)), colour, 1, cv2.LINE_AA)
+    else:
+        pts = np.array([view.px(x, y) for x, y in fp.corners()], np.int32)
+        cv2.polylines(img, [pts.reshape(-1, 1, 2)], True, colour, 1, cv2.LINE_AA)
+
+
+def draw_inspection(occ_map: OccupancyMap, reference: World, simulated: World, report: InspectionReport,
+                    trajectory: Sequence[tuple[float, float, float, float]], goals: Sequence[Pose2D],
+                    collisions: Sequence[tuple[float, float]] = (), caption: str = "", max_side: int = 1000
+                    ) -> np.ndarray:
+    view = _View(occ_map, max_side)
+    img = view.image
+    fs = max(0.4, min(img.shape[:2]) / 1500.0)
+    for obj in reference.objects:
+        _outline(view, img, obj, OUTLINE)
+        p = view.px(obj.x, obj.y)
+        _text(img, obj.name, (p[0] + 8, p[1] + 18), OUTLINE, fs * 0.9)
+    for obstacle in simulated.obstacles:
+        body = obstacle.body if hasattr(obstacle, "body") else obstacle
+        _outline(view, img, body, OBSTACLE)
+        p = view.px(body.x, body.y)
+        _text(img, obstacle.name, (p[0] + 8, p[1] + 4), OBSTACLE, fs * 0.9)
+    if len(trajectory) >= 2:
+        pts = np.array([view.px(x, y) for _, x, y, _ in trajectory[:: max(1, len(trajectory) // 4000)]], np.int32)
+        cv2.polylines(img, [pts.reshape(-1, 1, 2)], False, ROUTE, 2, cv2.LINE_AA)
+    for i, g in enumerate(goals):
+        p = view.px(g.x, g.y)
+        tip = view.px(g.x + 0.3 * math.cos(g.yaw), g.y + 0.3 * math.sin(g.yaw))
+        cv2.circle(img, p, 4, GOAL, 1, cv2.LINE_AA)
+        cv2.arrowedLine(img, p, tip, GOAL, 1, cv2.LINE_AA, tipLength=0.35)
+        _text(img, str(i), (p[0] - 14, p[1] - 6), GOAL, fs)
+    expected_labels = {v.label for _, v in report.objects.values()}
+    for _, found in report.found:
+        if found.name not in expected_labels:
+            p = view.px(found.x, found.y)
+            cv2.circle(img, p, 6, UNEXPECTED, -1, cv2.LINE_AA)
+            _text(img, found.name, (p[0] + 8, p[1] - 8), UNEXPECTED, fs)
+    size = max(6, round(0.12 * view.px_per_m))
+    for name, (_, verdict) in report.objects.items():
+        colour = COLOURS.get(verdict.status)
+        if colour is None:
+            continue
+        e = view.px(verdict.expected[0], verdict.expected[1])
+        if verdict.status == ABSENT:
+            cv2.line(img, (e[0] - size, e[1] - size), (e[0] + size, e[1] + size), colour, 3, cv2.LINE_AA)
+            cv2.line(img, (e[0] - size, e[1] + size), (e[0] + size, e[1] - size), colour, 3, cv2.LINE_AA)
+            _text(img, f"{name} missing", (e[0] + size + 4, e[1] - 4), colour, fs)
+            continue
+        assert verdict.found is not None
+        f = view.px(verdict.found.x, verdict.found.y)
+        if verdict.status == MOVED:
+            cv2.arrowedLine(img, e, f, colour, 2, cv2.LINE_AA, tipLength=0.15)
+            _text(img, f"{name} moved", (f[0] + 8, f[1] - 8), colour, fs)
+        cv2.circle(img, f, 6, colour, -1, cv2.LINE_AA)
+    for x, y in collisions:
+        cx, cy = view.px(x, y)
+        cv2.drawMarker(img, (cx, cy), (0, 0, 255), cv2.MARKER_TILTED_CROSS, 14, 2)
+    return np.vstack([_band(img.shape[1], caption, fs), img])
+
+
+def _band(width: int, caption: str, fs: float) -> np.ndarray:
+    """A white strip above the map: the caption, then a legend of the marks."""
+    line = round(30 * fs / 0.6)
+    rows = [*caption.splitlines(), ""]
+    band = np.full((line * len(rows) + 8, width, 3), 255, np.uint8)
+    for k, text in enumerate(rows[:-1]):
+        cv2.putText(band, text, (8, line * (k + 1) - 6), FONT, fs * 1.1, TEXT, 1, cv2.LINE_AA)
+    x, y = 8, line * len(rows) - 6
+    for label, colour, mark in [("present", COLOURS[PRESENT], "dot"), ("moved", COLOURS[MOVED], "dot"),
+                                ("missing", COLOURS[ABSENT], "cross"), ("not expected", UNEXPECTED, "dot"),
+                                ("expected place", OUTLINE, "ring"), ("obstacle not in the map", OBSTACLE, "ring"),
+                                ("route", ROUTE, "line")]:
+        c = (x + 8, y - 5)
+        if mark == "dot":
+            cv2.circle(band, c, 6, colour, -1, cv2.LINE_AA)
+        elif mark == "cross":
+            cv2.drawMarker(band, c, colour, cv2.MARKER_TILTED_CROSS, 14, 3)
+        elif mark == "ring":
+            cv2.circle(band, c, 6, colour, 1, cv2.LINE_AA)
+        else:
+            cv2.line(band, (x, y - 5), (x + 16, y - 5), colour, 2, cv2.LINE_AA)
+        cv2.putText(band, label, (x + 20, y), FONT, fs, TEXT, 1, cv2.LINE_AA)
+        x += 20 + cv2.getTextSize(label, FONT, fs, 1)[0][0] + 18
+    return band
