@@ -19,6 +19,7 @@ import tempfile
 from pathlib import Path
 
 import cv2
+from machine import cpu_model  # benchmarks/machine.py: scripts run with benchmarks/ on sys.path
 
 from objrec_apps.batch import BatchOutcome, make_plan, run_batch
 from objrec_core import open_source
@@ -41,14 +42,6 @@ def make_recordings(folder: Path, count: int, frames: int) -> list[str]:
     return paths
 
 
-def cpu_name() -> str:
-    try:
-        for line in Path("/proc/cpuinfo").read_text().splitlines():
-            if line.startswith("model name"):
-                return line.split(":", 1)[1].strip()
-    except OSError:
-        pass
-    return platform.processor() or platform.machine()
 
 
 def rows(outcome: BatchOutcome) -> list[tuple[str, int, int, int, str]]:
@@ -86,7 +79,7 @@ def main() -> None:
     frames = args.recordings * args.frames
     print(f"\nobjrec-batch, {args.recordings} recordings x {args.frames} frames ({frames} frames), "
           f"{Path(args.params).name}, best of {args.repeats}")
-    print(f"machine: {cpu_name()}, {len(os.sched_getaffinity(0))} cores available, Python "
+    print(f"machine: {cpu_model()}, {len(os.sched_getaffinity(0))} cores available, Python "
           f"{platform.python_version()}; load average {load_before[0]:.2f} before, {load_after[0]:.2f} after")
     print(f"{'workers':>8} {'in all (s)':>11} {'work (s)':>9} {'frames/s (work)':>16}")
     for workers in (1, 2):

@@ -15,10 +15,10 @@ import os
 import platform
 import statistics
 import time
-from pathlib import Path
 
 import cv2
 import numpy as np
+from machine import cpu_model  # benchmarks/machine.py: scripts run with benchmarks/ on sys.path
 
 from navigation.camera import CameraParams, RGBDCamera
 from navigation.geometry import Pose2D
@@ -29,14 +29,6 @@ TARGET_FPS = 30.0
 RES = 0.05
 
 
-def cpu_model() -> str:
-    try:
-        for line in Path("/proc/cpuinfo").read_text().splitlines():
-            if line.startswith("model name"):
-                return line.split(":", 1)[1].strip()
-    except OSError:
-        pass
-    return platform.processor() or platform.machine()
 
 
 def lab_map() -> OccupancyMap:

@@ -20,6 +20,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from machine import cpu_model  # benchmarks/machine.py: scripts run with benchmarks/ on sys.path
 
 import navigation
 from navigation.costmap import ObstacleField
@@ -38,14 +39,6 @@ SPEED_TARGET = 500.0
 PLAN_TARGET_MS = 100.0
 
 
-def cpu_model() -> str:
-    try:
-        for line in Path("/proc/cpuinfo").read_text().splitlines():
-            if line.startswith("model name"):
-                return line.split(":", 1)[1].strip()
-    except OSError:
-        pass
-    return platform.processor() or platform.machine()
 
 
 def free_poses(planner: Planner, n: int, seed: int, clearance: float = 0.4) -> list[Pose2D]:
