@@ -60,10 +60,17 @@ class ImageFileSource(FrameSource):
     def length(self) -> int:
         return self.repeat
 
+    @property
+    def seekable(self) -> bool:
+        return True
+
     def __iter__(self) -> Iterator[Frame]:
+        return self.frames_from(0)
+
+    def frames_from(self, index: int) -> Iterator[Frame]:
         stamp = self.path.stat().st_mtime
-        for index in range(self.repeat):
-            yield Frame(self._image, stamp, index, self.name)
+        for number in range(max(0, index), self.repeat):
+            yield Frame(self._image, stamp, number, self.name)
 
 
 class FolderSource(FrameSource):
@@ -96,14 +103,24 @@ class FolderSource(FrameSource):
     def length(self) -> int:
         return len(self.files)
 
+    @property
+    def seekable(self) -> bool:
+        return True
+
     def __iter__(self) -> Iterator[Frame]:
-        for index, file in enumerate(self.files):
+        return self.frames_from(0)
+
+    def frames_from(self, index: int) -> Iterator[Frame]:
+        """From the ``index``-th image on; each frame's ``source`` is its file, so a viewer can name it."""
+        start = max(0, index)
+        for number, file in enumerate(self.files[start:], start):
             image = cv2.imread(str(file), cv2.IMREAD_COLOR)
             if image is None:
                 log.warning("%s: not a readable image, skipped", file)
-                self.skipped.append(file)
+                if file not in self.skipped:
+                    self.skipped.append(file)
                 continue
-            yield Frame(image, file.stat().st_mtime, index, str(file))
+            yield Frame(image, file.stat().st_mtime, number, str(file))
         if len(self.skipped) == len(self.files):
             raise SourceError(f"{self.name}: none of its {len(self.files)} images could be read")
 
@@ -165,9 +182,27 @@ class CaptureSource(FrameSource):
                 return image
         raise SourceError(f"{self.name}: camera stopped delivering frames after {self.retries} retries")
 
+    @property
+    def seekable(self) -> bool:
+        """A video file of known length can be positioned; a camera cannot."""
+        return not self.is_camera and self._length is not None
+
+    def frames_from(self, index: int) -> Iterator[Frame]:
+        """From frame ``index`` on: the capture is positioned there (FFmpeg seeks to the frame, decoding from
+        the key frame before it). The capture is shared, so only the newest iterator reads correctly."""
+        if not self.seekable:
+            return super().frames_from(index)
+        index = max(0, index)
+        if self._length is not None and index >= self._length:
+            return iter(())
+        self._capture.set(cv2.CAP_PROP_POS_FRAMES, float(index))
+        return self._frames(index)
+
     def __iter__(self) -> Iterator[Frame]:
-        start = time.time()
-        index = 0
+        return self._frames(0)
+
+    def _frames(self, index: int) -> Iterator[Frame]:
+        start = time.time() - index / self._fps
         while True:
             image = self._read()
             if image is None:

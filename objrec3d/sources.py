@@ -132,10 +132,19 @@ class FileSource(FrameSource):
     def length(self) -> int:
         return len(self.paths)
 
+    @property
+    def seekable(self) -> bool:
+        return True
+
     def __iter__(self) -> Iterator[Frame]:
-        for index, path in enumerate(self.paths):
+        return self.frames_from(0)
+
+    def frames_from(self, index: int) -> Iterator[Frame]:
+        """From the ``index``-th file on; each frame's ``source`` is its file, so a viewer can name it."""
+        start = max(0, index)
+        for number, path in enumerate(self.paths[start:], start):
             cloud = read_cloud(path)
-            yield Frame(cloud, stamp=path.stat().st_mtime, index=index, source=str(path))
+            yield Frame(cloud, stamp=path.stat().st_mtime, index=number, source=str(path))
 
 
 class DemoSource(FrameSource):

@@ -212,6 +212,19 @@ class FrameSource(ABC):
     @abstractmethod
     def __iter__(self) -> Iterator[Frame]: ...
 
+    # -- seeking (optional) -----------------------------------------------------------------------------
+    @property
+    def seekable(self) -> bool:
+        """Whether ``frames_from`` can start anywhere: recordings of known length (videos, folders, files,
+        bags) can, so a viewer can jump to frame N and loop; cameras and endless scenes cannot."""
+        return False
+
+    def frames_from(self, index: int) -> Iterator[Frame]:
+        """The frames from number ``index`` on (numbered as a full iteration numbers them), without reading
+        the ones before where the source can skip them; an index past the end gives no frames. Only where
+        ``seekable``: SourceError otherwise. A fresh iterator each call, independent of ``__iter__``'s."""
+        raise SourceError(f"{self.name}: this source cannot start at frame {index} (it is not seekable)")
+
     def close(self) -> None:  # noqa: B027 - most sources hold nothing to release
         """Release what the source holds."""
 

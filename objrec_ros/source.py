@@ -168,11 +168,48 @@ class BagSource(FrameSource):
             return None
         return (len(times) - 1) / ((times[-1] - times[0]) / 1e9)
 
+    @property
+    def seekable(self) -> bool:
+        """The topic's log times are indexed, so any of its messages can be the first read."""
+        return True
+
+    def frames_from(self, index: int) -> Iterator[Frame]:
+        """From the topic's ``index``-th message in the window on: reading starts at its log time (nothing
+        before it is decoded). A depth topic paired with CameraInfo numbers its frames by depth message."""
+        times = self._log_times()
+        if index <= 0:
+            return self._frames(0, None)
+        if index >= len(times):
+            return iter(())
+        return self._frames(index, times[index])
+
     def __iter__(self) -> Iterator[Frame]:
-        index = 0
+        return self._frames(0, None)
+
+    def _decoded_from(self, first_log: int | None) -> Iterator[Decoded]:
+        """``_decoded`` with the window opened at ``first_log`` (ns), messages before it dropped."""
+        decoded = self._decoded()
+        if first_log is None:
+            yield from decoded
+            return
+        saved, self.start = self.start, (first_log - self.recording.start_ns) / 1e9
+        try:
+            first = next(decoded, None)  # the subclass reads the window when it starts reading
+        finally:
+            self.start = saved
+        if first is None:
+            return
+        if first[0] >= first_log:
+            yield first
+        for item in decoded:
+            if item[0] >= first_log:
+                yield item
+
+    def _frames(self, first_index: int, first_log: int | None) -> Iterator[Frame]:
+        index = first_index
         wall0 = log0 = None
         try:
-            for log_time, stamp, frame_id, data in self._decoded():
+            for log_time, stamp, frame_id, data in self._decoded_from(first_log):
                 if self.pace > 0:
                     if wall0 is None or log0 is None:
                         wall0, log0 = time.monotonic(), log_time

@@ -96,12 +96,18 @@ class CloudScene:
         return cls(names, np.concatenate(merged_points), np.concatenate(merged_owner), counts)
 
     def bounds(self) -> tuple[np.ndarray, np.ndarray] | None:
-        """A robust box around the points (2nd to 98th percentile), for fitting the view."""
+        """A robust box around the points (2nd to 98th percentile), for fitting the view; computed once per
+        scene, since views ask for it on every frame they draw (grid, clip planes)."""
         if self.points.shape[0] == 0:
             return None
+        cached = self.__dict__.get("_bounds")
+        if cached is not None and cached[0] is self.points:
+            return cached[1]
         sample = self.points[:: max(1, self.points.shape[0] // 20000)]
         low, high = np.percentile(sample, [2, 98], axis=0)
-        return low.astype(np.float64), high.astype(np.float64)
+        found = (low.astype(np.float64), high.astype(np.float64))
+        self.__dict__["_bounds"] = (self.points, found)
+        return found
 
 
 @dataclass
@@ -243,3 +249,123 @@ def _grow(owner_image: np.ndarray, zbuffer: np.ndarray, size: int) -> None:
             take = empty[dy:, dx:] & (shifted < target_best)
             target_best[take] = shifted[take]
             owner_image[dy:, dx:][take] = source_owner[: h - dy, : w - dx][take]
+
+
+def camera_points(camera: OrbitCamera, points: np.ndarray) -> np.ndarray:
+    """World points (M x 3) in the camera's frame: x right, y down, z forward (the depth)."""
+    return (np.asarray(points, dtype=np.float64) - camera.position()) @ camera.rotation().T
+
+
+def pixel_point(camera: OrbitCamera, u: float, v: float, width: int, height: int, depth: float) -> np.ndarray:
+    """The world point seen at widget pixel (u, v) at ``depth`` metres along the view axis."""
+    focal = camera.focal(height)
+    local = np.array([(u - width / 2.0) / focal * depth, (v - height / 2.0) / focal * depth, depth])
+    return camera.position() + camera.rotation().T @ local
+
+
+def pick(
+    camera: OrbitCamera, points: np.ndarray, u: float, v: float, width: int, height: int, radius: float = 6.0
+) -> np.ndarray | None:
+    """The nearest point drawn within ``radius`` pixels of (u, v), or None: what the user points at, so a zoom
+    or a pan can keep it under the cursor. Large clouds are sampled (every point of a 640x480 cloud is
+    checked; beyond about a million, a regular subset) to stay under a few milliseconds."""
+    if points.shape[0] == 0:
+        return None
+    sample = points[:: max(1, points.shape[0] // 1_000_000)]
+    local = (sample - camera.position().astype(np.float32)) @ camera.rotation().T.astype(np.float32)
+    depth = local[:, 2]
+    focal = np.float32(camera.focal(height))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        du = local[:, 0] * focal / depth + np.float32(width / 2.0 - u)
+        dv = local[:, 1] * focal / depth + np.float32(height / 2.0 - v)
+    near = np.flatnonzero((depth > NEAR) & (du * du + dv * dv <= radius * radius))
+    if near.size == 0:
+        return None
+    return sample[near[np.argmin(depth[near])]].astype(np.float64)
+
+
+def fit_distance(camera: OrbitCamera, bounds: tuple[np.ndarray, np.ndarray], aspect: float) -> float:
+    """How far from the box's centre the camera must be, looking from any direction, to see the whole box."""
+    low, high = bounds
+    radius = max(float(np.linalg.norm((high - low) / 2.0)), 1e-3)
+    half_fov = min(camera.fov_y / 2.0, math.atan(math.tan(camera.fov_y / 2.0) * max(aspect, 1e-3)))
+    return 1.05 * radius / math.sin(half_fov)
+
+
+def frame_bounds(camera: OrbitCamera, bounds: tuple[np.ndarray, np.ndarray] | None, aspect: float) -> None:
+    """Centre the box and move just far enough to see it, keeping the direction the user looks from: the
+    "fit to detections" and "fit to cloud" actions (the reset view also turns back to the sensor's)."""
+    if bounds is None:
+        return
+    low, high = (np.asarray(b, dtype=np.float64) for b in bounds)
+    camera.target = (low + high) / 2.0
+    camera.distance = fit_distance(camera, (low, high), aspect)
+
+
+def rotate_about(camera: OrbitCamera, d_yaw: float, d_pitch: float, pivot: np.ndarray) -> None:
+    """Turn the camera around ``pivot`` (e.g. the detections' centre) instead of its target: the pivot keeps
+    its place on screen while everything turns around it."""
+    local = camera.rotation() @ (np.asarray(pivot, dtype=np.float64) - camera.position())
+    camera.rotate(d_yaw, d_pitch)
+    rotation = camera.rotation()
+    position = pivot - rotation.T @ local
+    camera.target = position + camera.distance * rotation[2]
+
+
+def zoom_toward(camera: OrbitCamera, factor: float, point: np.ndarray) -> None:
+    """Scale the camera's position and target about ``point`` by ``factor`` (< 1 comes closer): the point
+    stays under the same pixel, as a map zooms toward the cursor."""
+    new_distance = camera.distance * factor
+    if not 1e-3 <= new_distance <= 1e4:
+        return
+    point = np.asarray(point, dtype=np.float64)
+    camera.target = point + (camera.target - point) * factor
+    camera.distance = float(new_distance)
+
+
+def nice_step(extent: float) -> float:
+    """A round grid spacing (1, 2 or 5 times a power of ten) giving about ten cells across ``extent``."""
+    raw = max(extent, 1e-3) / 10.0
+    power = 10.0 ** math.floor(math.log10(raw))
+    for multiple in (1.0, 2.0, 5.0, 10.0):
+        if raw <= multiple * power:
+            return multiple * power
+    return 10.0 * power
+
+
+def ground_grid(bounds: tuple[np.ndarray, np.ndarray] | None) -> tuple[np.ndarray, float]:
+    """Segments (K x 2 x 3) of a square grid under the cloud: in the x-z plane (the sensor's y points down)
+    at the cloud's lowest level, in round steps; and the step in metres."""
+    if bounds is None:
+        low, high = np.array([-1.0, 0.0, 0.0]), np.array([1.0, 0.5, 2.0])
+    else:
+        low, high = bounds
+    step = nice_step(float(max(high[0] - low[0], high[2] - low[2])))
+    x0, x1 = math.floor(low[0] / step) - 1, math.ceil(high[0] / step) + 1
+    z0, z1 = math.floor(min(low[2], 0.0) / step), math.ceil(high[2] / step) + 1
+    y = float(high[1])
+    segments = [[(i * step, y, z0 * step), (i * step, y, z1 * step)] for i in range(x0, x1 + 1)]
+    segments += [[(x0 * step, y, k * step), (x1 * step, y, k * step)] for k in range(z0, z1 + 1)]
+    return np.asarray(segments, dtype=np.float64), step
+
+
+def clip_segment(camera: OrbitCamera, a: np.ndarray, b: np.ndarray, width: int, height: int) -> (
+    tuple[tuple[float, float], tuple[float, float]] | None
+):
+    """Widget coordinates of the part of world segment a-b in front of the camera (None: all behind), so
+    grid lines passing beside or behind the viewer are drawn correctly."""
+    local = camera_points(camera, np.vstack([a, b]))
+    za, zb = local[0, 2], local[1, 2]
+    limit = 10 * NEAR
+    if za <= limit and zb <= limit:
+        return None
+    if za <= limit or zb <= limit:
+        t = (limit - za) / (zb - za)
+        cut = local[0] + t * (local[1] - local[0])
+        if za <= limit:
+            local[0] = cut
+        else:
+            local[1] = cut
+    focal = camera.focal(height)
+    uv = local[:, :2] * (focal / local[:, 2:3]) + (width / 2.0, height / 2.0)
+    return (float(uv[0, 0]), float(uv[0, 1])), (float(uv[1, 0]), float(uv[1, 1]))

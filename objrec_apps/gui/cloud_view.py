@@ -1,12 +1,15 @@
-"""CloudView: the interactive point-cloud view (rotate, zoom, pan, reset) with detected boxes.
+"""CloudView: the interactive point-cloud view (orbit, zoom toward the cursor, pan, fit) with detected boxes.
 
 It paints the software renderer's image (``cloud_render``) and draws each detected object's box (its
-``Outline`` from the data kind) and a small coordinate frame at its centre with QPainter on top, so it needs
-no OpenGL and works offscreen.
+``Outline`` from the data kind), a small coordinate frame at its centre, a ground grid and the sensor's axes
+with QPainter on top, so it needs no OpenGL and works offscreen. ``CloudInteraction`` holds what the
+OpenGL view (``gl_cloud_view``) shares with it: the camera, the mouse and the overlays.
 """
 
 from __future__ import annotations
 
+import time
+from collections import deque
 from collections.abc import Sequence
 from typing import Any
 
@@ -17,13 +20,31 @@ from PySide6.QtWidgets import QSizePolicy, QWidget
 
 from objrec_core import Outline
 
-from .cloud_render import NEAR, CloudScene, OrbitCamera, layer_colour, render
+from .cloud_render import (
+    NEAR,
+    CloudScene,
+    OrbitCamera,
+    clip_segment,
+    frame_bounds,
+    ground_grid,
+    layer_colour,
+    pick,
+    pixel_point,
+    render,
+    rotate_about,
+    zoom_toward,
+)
 from .images import ImageBuffer, rgb_qimage
 
 BOX_COLOUR = QColor(255, 255, 0)
 AXIS_COLOURS = (QColor(255, 60, 60), QColor(60, 255, 60), QColor(80, 140, 255))
+GRID_COLOUR = QColor(110, 115, 125, 150)
 #: Radians per pixel of mouse drag.
 ROTATE_SPEED = 0.008
+#: Distance factor of one wheel notch (120 eighths of a degree): small steps, 10% closer per notch.
+ZOOM_STEP = 0.9
+#: Seconds of paints the frame-rate label averages over.
+FPS_WINDOW = 1.0
 #: Corner pairs joined by the box's twelve edges (corner i: the signs of bits 2, 1, 0 along local x, y, z).
 BOX_EDGES = [(i, i ^ bit) for i in range(8) for bit in (1, 2, 4) if i < i ^ bit]
 
@@ -40,28 +61,52 @@ def box_frame(corners: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
     return box.mean(axis=0), axes, sides
 
 
-class CloudView(QWidget):
-    """The 3D view. Left drag rotates, right or middle drag (or Shift + left) pans, the wheel zooms,
-    a double click or R resets to the sensor's view of the whole cloud."""
+def outlines_bounds(outlines: Sequence[Outline | None]) -> tuple[np.ndarray, np.ndarray] | None:
+    """The box around every detected object's box corners (None without a box): what "fit to detections"
+    shows and what the view orbits around."""
+    corners = [np.asarray(o.box, dtype=np.float64) for o in outlines if o is not None and o.box is not None]
+    corners = [c for c in corners if c.shape == (8, 3) and np.isfinite(c).all()]
+    if not corners:
+        return None
+    every = np.vstack(corners)
+    return every.min(axis=0), every.max(axis=0)
 
-    viewChanged = Signal()  # noqa: N815 - Qt's signal naming
 
-    def __init__(self, parent: QWidget | None = None) -> None:
-        super().__init__(parent)
+class CloudInteraction:
+    """What both 3D views share: the camera, mouse and keys, the overlays (boxes, grid, axes, legend) and
+    the measured frame rate. Left drag orbits (around the detections when ``orbit_detections`` and there
+    are some), right or middle drag (or Shift + left) pans one to one, the wheel zooms toward the point
+    under the cursor, a double click or R resets to the sensor's view, F fits the detections, A the cloud.
+
+    Mixed into a QWidget subclass, which calls ``_init_interaction`` and defines ``viewChanged``."""
+
+    camera: OrbitCamera
+    scene: CloudScene
+    outlines: list[Outline | None]
+
+    def _init_interaction(self) -> None:
         self.camera = OrbitCamera()
         self.scene = CloudScene()
         #: One outline per detected object, in the detection list's order (None: nothing to draw).
-        self.outlines: list[Outline | None] = []
+        self.outlines = []
         self.point_size = 1
         self.hidden: frozenset[int] = frozenset()
+        self.show_grid = True
+        self.orbit_detections = True
+        #: Text drawn over the view while it waits for data (a cloud loading, a pipeline turning 3D).
+        self.busy_text = ""
         self._fitted = False
-        self._cache: tuple[Any, ImageBuffer] | None = None
-        self._drag: tuple[QPointF, Qt.MouseButton, Qt.KeyboardModifier] | None = None
-        self.setMinimumSize(320, 240)
-        self.setSizePolicy(QSizePolicy.Policy.Expanding, QSizePolicy.Policy.Expanding)
-        self.setFocusPolicy(Qt.FocusPolicy.StrongFocus)
-        self.setAttribute(Qt.WidgetAttribute.WA_OpaquePaintEvent)
-        self.setToolTip("Drag: rotate · right drag or Shift+drag: pan · wheel: zoom · double click or R: reset")
+        self._drag: tuple[QPointF, Qt.MouseButton, Qt.KeyboardModifier, float] | None = None
+        self._paint_times: deque[float] = deque(maxlen=600)
+        self._grid_cache: tuple[Any, np.ndarray, float] | None = None
+        #: Milliseconds the last frame took to draw (points and overlays).
+        self.frame_ms = 0.0
+        self.setMinimumSize(320, 240)  # type: ignore[attr-defined]
+        self.setSizePolicy(QSizePolicy.Policy.Expanding, QSizePolicy.Policy.Expanding)  # type: ignore[attr-defined]
+        self.setFocusPolicy(Qt.FocusPolicy.StrongFocus)  # type: ignore[attr-defined]
+        self.setToolTip(  # type: ignore[attr-defined]
+            "Drag: orbit · right drag or Shift+drag: pan · wheel: zoom toward the cursor · "
+            "F: fit to detections · A: fit to cloud · double click or R: sensor view")
 
     def sizeHint(self) -> QSize:  # noqa: N802 - Qt override
         return QSize(640, 480)
@@ -75,16 +120,40 @@ class CloudView(QWidget):
         if not self._fitted and scene.points.shape[0]:
             self.camera.fit(scene.bounds(), self._aspect())
             self._fitted = True
-        self._cache = None
-        self.update()
+        self._scene_changed()
+        self.update()  # type: ignore[attr-defined]
+
+    def _scene_changed(self) -> None:
+        """Hook: the points changed (the OpenGL view uploads them again)."""
 
     def _aspect(self) -> float:
-        return self.width() / max(self.height(), 1)
+        return self.width() / max(self.height(), 1)  # type: ignore[attr-defined]
 
     def reset_view(self) -> None:
         self.camera.fit(self.scene.bounds(), self._aspect())
         self._fitted = self.scene.points.shape[0] > 0
         self._changed()
+
+    def fit_to_cloud(self) -> None:
+        """See the whole cloud from the direction looked from now."""
+        frame_bounds(self.camera, self.scene.bounds(), self._aspect())
+        self._changed()
+
+    def fit_to_detections(self) -> bool:
+        """See every detected box, from the direction looked from now; False when there is none."""
+        bounds = outlines_bounds(self.outlines)
+        if bounds is None:
+            return False
+        frame_bounds(self.camera, bounds, self._aspect())
+        self._changed()
+        return True
+
+    def orbit_pivot(self) -> np.ndarray | None:
+        """The point left drags turn around: the detections' centre when orbiting them, else the target."""
+        if not self.orbit_detections:
+            return None
+        bounds = outlines_bounds(self.outlines)
+        return None if bounds is None else (bounds[0] + bounds[1]) / 2.0
 
     def set_point_size(self, size: int) -> None:
         self.point_size = max(1, min(int(size), 4))
@@ -94,34 +163,83 @@ class CloudView(QWidget):
         self.hidden = frozenset(hidden)
         self._changed()
 
+    def set_grid(self, shown: bool) -> None:
+        self.show_grid = bool(shown)
+        self._changed()
+
+    def set_orbit_detections(self, on: bool) -> None:
+        self.orbit_detections = bool(on)
+
+    def set_busy(self, text: str) -> None:
+        """Show ``text`` over the view with a moving mark until ``set_busy("")``."""
+        self.busy_text = text
+        self.update()  # type: ignore[attr-defined]
+
     def _changed(self) -> None:
-        self._cache = None
-        self.update()
-        self.viewChanged.emit()
+        self.update()  # type: ignore[attr-defined]
+        self.viewChanged.emit()  # type: ignore[attr-defined]
 
-    # -- rendering ------------------------------------------------------------------------------------
-    def render_image(self) -> ImageBuffer:
-        """The cloud rendered at the widget's size; cached until the scene, view or size changes."""
-        c = self.camera
-        key = (id(self.scene), self.width(), self.height(), tuple(c.target), c.distance, c.yaw, c.pitch,
-               self.point_size, self.hidden)
-        if self._cache is None or self._cache[0] != key:
-            rgb = render(self.scene, c, self.width(), self.height(), point_size=self.point_size, hidden=self.hidden)
-            self._cache = (key, rgb_qimage(rgb))
-        return self._cache[1]
+    # -- frame rate -----------------------------------------------------------------------------------
+    def _count_frame(self, started: float) -> None:
+        now = time.perf_counter()
+        self.frame_ms = (now - started) * 1000.0
+        self._paint_times.append(now)
 
+    def frames_per_second(self, now: float | None = None) -> float:
+        """Frames drawn per second over the last second: 0 when nothing was drawn in it (nothing moves)."""
+        now = time.perf_counter() if now is None else now
+        recent = [t for t in self._paint_times if now - t <= FPS_WINDOW]
+        if len(recent) < 2:
+            return 0.0
+        return (len(recent) - 1) / max(recent[-1] - recent[0], 1e-6)
+
+    @property
+    def frames_drawn(self) -> int:
+        return len(self._paint_times)
+
+    # -- overlays -------------------------------------------------------------------------------------
     def project(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        return self.camera.project(points, self.width(), self.height())
+        return self.camera.project(points, self.width(), self.height())  # type: ignore[attr-defined]
 
-    def paintEvent(self, event: QPaintEvent) -> None:  # noqa: N802 - Qt override
-        painter = QPainter(self)
-        painter.drawImage(0, 0, self.render_image().qimage)
+    def draw_overlays(self, painter: QPainter) -> None:
         painter.setRenderHint(QPainter.RenderHint.Antialiasing)
+        if self.show_grid:
+            self._draw_grid(painter)
         for number, outline in enumerate(self.outlines, 1):
             if outline is not None and outline.box is not None:
                 self._draw_box(painter, outline, number)
         self._draw_legend(painter)
-        painter.end()
+        if self.busy_text:
+            self._draw_busy(painter)
+
+    def _segment(self, painter: QPainter, a: np.ndarray, b: np.ndarray) -> None:
+        ends = clip_segment(self.camera, a, b, self.width(), self.height())  # type: ignore[attr-defined]
+        if ends is not None:
+            painter.drawLine(QPointF(*ends[0]), QPointF(*ends[1]))
+
+    def _draw_grid(self, painter: QPainter) -> None:
+        """The ground grid under the cloud and the sensor's axes at the origin (x red, y green, z blue)."""
+        bounds = self.scene.bounds()
+        key = id(self.scene)
+        if self._grid_cache is None or self._grid_cache[0] != key:
+            segments, step = ground_grid(bounds)
+            self._grid_cache = (key, segments, step)
+        _, segments, step = self._grid_cache
+        painter.setPen(QPen(GRID_COLOUR, 1))
+        for a, b in segments:
+            self._segment(painter, a, b)
+        origin = np.zeros(3)
+        painter.setFont(QFont(painter.font().family(), 8))
+        for axis, name in enumerate("xyz"):
+            end = np.zeros(3)
+            end[axis] = 2 * step
+            painter.setPen(QPen(AXIS_COLOURS[axis], 2))
+            self._segment(painter, origin, end)
+            uv, depth = self.project(end[None, :])
+            if depth[0] > NEAR:
+                painter.drawText(QPointF(uv[0, 0] + 3, uv[0, 1] - 3), name)
+        painter.setPen(QPen(GRID_COLOUR.lighter(150)))
+        painter.drawText(QPointF(8, self.height() - 8), f"grid {step:g} m")  # type: ignore[attr-defined]
 
     def _line(self, painter: QPainter, a: np.ndarray, b: np.ndarray, da: float, db: float) -> None:
         if da > NEAR and db > NEAR:
@@ -166,23 +284,59 @@ class CloudView(QWidget):
             painter.setPen(QPen(QColor(230, 230, 230)))
             painter.drawText(QPointF(26, y + 11), f"{len(self.outlines)} detected")
 
+    def _draw_busy(self, painter: QPainter) -> None:
+        """A banner with a turning arc: the view is waiting, not broken."""
+        width, height = self.width(), self.height()  # type: ignore[attr-defined]
+        box = QRectF(width / 2 - 170, height / 2 - 22, 340, 44)
+        painter.fillRect(box, QColor(0, 0, 0, 170))
+        painter.setPen(QPen(QColor(120, 190, 255), 3))
+        angle = int((time.perf_counter() * 360) % 360) * 16
+        painter.drawArc(QRectF(box.left() + 12, box.top() + 10, 24, 24), angle, 270 * 16)
+        painter.setPen(QPen(QColor(235, 235, 235)))
+        painter.setFont(QFont(painter.font().family(), 10))
+        painter.drawText(box.adjusted(46, 0, -8, 0), int(Qt.AlignmentFlag.AlignVCenter), self.busy_text)
+
     # -- interaction ------------------------------------------------------------------------------------
+    def _under_cursor(self, position: QPointF) -> np.ndarray | None:
+        visible = self.scene.points
+        if self.hidden and visible.shape[0]:
+            visible = visible[~np.isin(self.scene.owner, list(self.hidden))]
+        return pick(self.camera, visible, position.x(), position.y(), self.width(), self.height())  # type: ignore[attr-defined]
+
+    def _depth_under(self, position: QPointF) -> float:
+        """Depth of the point under the cursor (the target's when none): a pan moves that point one to one."""
+        point = self._under_cursor(position)
+        if point is None:
+            return self.camera.distance
+        depth = float(self.camera.rotation()[2] @ (point - self.camera.position()))
+        return depth if depth > NEAR else self.camera.distance
+
     def mousePressEvent(self, event: QMouseEvent) -> None:  # noqa: N802 - Qt override
-        self._drag = (event.position(), event.button(), event.modifiers())
+        pan = self._is_pan(event.button(), event.modifiers())
+        depth = self._depth_under(event.position()) if pan else self.camera.distance
+        self._drag = (event.position(), event.button(), event.modifiers(), depth)
+
+    @staticmethod
+    def _is_pan(button: Qt.MouseButton, modifiers: Qt.KeyboardModifier) -> bool:
+        return button in (Qt.MouseButton.RightButton, Qt.MouseButton.MiddleButton) or bool(
+            modifiers & Qt.KeyboardModifier.ShiftModifier)
 
     def mouseMoveEvent(self, event: QMouseEvent) -> None:  # noqa: N802 - Qt override
         if self._drag is None:
             return
-        start, button, modifiers = self._drag
+        start, button, modifiers, depth = self._drag
         delta = event.position() - start
-        pan = button in (Qt.MouseButton.RightButton, Qt.MouseButton.MiddleButton) or bool(
-            modifiers & Qt.KeyboardModifier.ShiftModifier
-        )
-        if pan:
-            self.camera.pan(delta.x(), delta.y(), self.height())
+        if self._is_pan(button, modifiers):
+            self.camera.pan(delta.x() * depth / self.camera.distance, delta.y() * depth / self.camera.distance,
+                            self.height())  # type: ignore[attr-defined]
         else:
-            self.camera.rotate(delta.x() * ROTATE_SPEED, -delta.y() * ROTATE_SPEED)
-        self._drag = (event.position(), button, modifiers)
+            pivot = self.orbit_pivot()
+            d_yaw, d_pitch = delta.x() * ROTATE_SPEED, -delta.y() * ROTATE_SPEED
+            if pivot is None:
+                self.camera.rotate(d_yaw, d_pitch)
+            else:
+                rotate_about(self.camera, d_yaw, d_pitch, pivot)
+        self._drag = (event.position(), button, modifiers, depth)
         self._changed()
 
     def mouseReleaseEvent(self, event: QMouseEvent) -> None:  # noqa: N802 - Qt override
@@ -191,20 +345,72 @@ class CloudView(QWidget):
     def mouseDoubleClickEvent(self, event: QMouseEvent) -> None:  # noqa: N802 - Qt override
         self.reset_view()
 
+    def zoom_at(self, position: QPointF, steps: float) -> None:
+        """Zoom ``steps`` notches (positive: closer) toward the spot under ``position``, at the depth of what
+        is drawn there (the target's depth where nothing is), so that spot stays under the cursor."""
+        point = pixel_point(self.camera, position.x(), position.y(), self.width(), self.height(),  # type: ignore[attr-defined]
+                            self._depth_under(position))
+        zoom_toward(self.camera, ZOOM_STEP**steps, point)
+        self._changed()
+
     def wheelEvent(self, event: QWheelEvent) -> None:  # noqa: N802 - Qt override
         steps = event.angleDelta().y() / 120.0
-        self.camera.zoom(0.85**steps)
-        self._changed()
+        if steps:
+            self.zoom_at(event.position(), steps)
 
     def keyPressEvent(self, event: QKeyEvent) -> None:  # noqa: N802 - Qt override
         key = event.key()
+        centre = QPointF(self.width() / 2.0, self.height() / 2.0)  # type: ignore[attr-defined]
         if key == Qt.Key.Key_R:
             self.reset_view()
+        elif key == Qt.Key.Key_F:
+            self.fit_to_detections()
+        elif key == Qt.Key.Key_A:
+            self.fit_to_cloud()
         elif key in (Qt.Key.Key_Plus, Qt.Key.Key_Equal):
-            self.camera.zoom(0.85)
-            self._changed()
+            self.zoom_at(centre, 1)
         elif key == Qt.Key.Key_Minus:
-            self.camera.zoom(1 / 0.85)
-            self._changed()
+            self.zoom_at(centre, -1)
         else:
-            super().keyPressEvent(event)
+            super().keyPressEvent(event)  # type: ignore[misc]
+
+
+class CloudView(CloudInteraction, QWidget):
+    """The 3D view drawn by the NumPy renderer: works anywhere Qt does (offscreen, no GPU)."""
+
+    viewChanged = Signal()  # noqa: N815 - Qt's signal naming
+
+    def __init__(self, parent: QWidget | None = None) -> None:
+        QWidget.__init__(self, parent)
+        self._init_interaction()
+        self._cache: tuple[Any, ImageBuffer] | None = None
+        self.setAttribute(Qt.WidgetAttribute.WA_OpaquePaintEvent)
+
+    @property
+    def uses_opengl(self) -> bool:
+        return False
+
+    def _scene_changed(self) -> None:
+        self._cache = None
+
+    def _changed(self) -> None:
+        self._cache = None
+        super()._changed()
+
+    def render_image(self) -> ImageBuffer:
+        """The cloud rendered at the widget's size; cached until the scene, view or size changes."""
+        c = self.camera
+        key = (id(self.scene), self.width(), self.height(), tuple(c.target), c.distance, c.yaw, c.pitch,
+               self.point_size, self.hidden)
+        if self._cache is None or self._cache[0] != key:
+            rgb = render(self.scene, c, self.width(), self.height(), point_size=self.point_size, hidden=self.hidden)
+            self._cache = (key, rgb_qimage(rgb))
+        return self._cache[1]
+
+    def paintEvent(self, event: QPaintEvent) -> None:  # noqa: N802 - Qt override
+        started = time.perf_counter()
+        painter = QPainter(self)
+        painter.drawImage(0, 0, self.render_image().qimage)
+        self.draw_overlays(painter)
+        painter.end()
+        self._count_frame(started)

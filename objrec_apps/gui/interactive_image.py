@@ -46,6 +46,8 @@ class InteractiveImage(QWidget):
         #: The tag of the image last painted and how many paints so far (the benchmark counts these).
         self.painted_tag: Any = None
         self.paint_count = 0
+        #: The keyboard modifiers held when the last selection was released (Shift: the HSV eyedropper).
+        self.selection_modifiers = Qt.KeyboardModifier.NoModifier
         self.setMouseTracking(True)
         self.setMinimumSize(160, 120)
         self.setSizePolicy(QSizePolicy.Policy.Expanding, QSizePolicy.Policy.Expanding)
@@ -158,6 +160,7 @@ class InteractiveImage(QWidget):
         self._drag_end = self._clamped(point)
         rect = self.selection()
         if rect is not None:
+            self.selection_modifiers = event.modifiers()
             self.areaSelected.emit(rect)  # the held image and its tag are still current here
         self._drag_start = self._drag_end = None
         pending, self._pending = self._pending, None

@@ -39,12 +39,18 @@ from objrec_core import (
     source_kinds,
 )
 
+from .changes import ChangeTracker
+from .export_script import export_dialog
+from .eyedropper import Eyedropper
+from .message_area import MessageArea, detector_reasons, is_file_error, selection_report
 from .panel_column import PanelColumn
 from .parameter_files import ParameterFiles
 from .pipeline_menu import PipelineMenu
+from .seek_bar import SeekBar
 from .source_bar import FrameRate, SourceBar
 from .stage_views import MODES, StageViews, stage_images
 from .topic_chooser import with_topic
+from .undo import UndoRecorder
 from .view3d import View3D, prepare_scene
 from .worker import ProcessingWorker, Shown
 
@@ -118,6 +124,12 @@ class DefinitionGUI(QMainWindow):
         #: The parameter generation of the frame on screen (compare with ``worker.generation``).
         self.last_shown_generation = -1
         self.files = ParameterFiles(self.system, self.settings, self, exclusive=self.worker.exclusive)
+        # Part A: undo steps from the Change events (undo.py); unsaved-changes questions, opened values and the
+        # description (changes.py). Made before the panels, which offer the opened values.
+        self.undo = UndoRecorder(self.system, self)
+        self.changes = ChangeTracker(self.system, self.undo.stack, self, self.files.save)
+        self.files.guard = self.changes.may_lose_changes
+        self.files.before_write = self.changes.before_save
 
         self.stage_views = StageViews(view_mode or str(self.settings.value("view/mode", "tabs")))
         self.view3d = View3D()
@@ -140,6 +152,12 @@ class DefinitionGUI(QMainWindow):
 
         self.source_bar = SourceBar(self.files.last_folder, self, kind=lambda: self.system.kind)
         self.addToolBar(Qt.ToolBarArea.TopToolBarArea, self.source_bar)
+        # Part B: moving through recordings (seek_bar.py) and every message kept whole (message_area.py).
+        self.seek_bar = SeekBar(self)
+        self.addToolBarBreak(Qt.ToolBarArea.TopToolBarArea)
+        self.addToolBar(Qt.ToolBarArea.TopToolBarArea, self.seek_bar)
+        self.message_area = MessageArea(self)
+        self.addDockWidget(Qt.DockWidgetArea.BottomDockWidgetArea, self.message_area)
 
         self.hover_label = QLabel()
         self.path_label = QLabel()
@@ -150,6 +168,8 @@ class DefinitionGUI(QMainWindow):
         self.statusBar().addPermanentWidget(self.path_label)
 
         self.pipeline_menu = PipelineMenu(self.system, self)
+        self.eyedropper = Eyedropper(self.system, lambda text, error: self.show_message(text, error=error), self)
+        self.addToolBar(Qt.ToolBarArea.TopToolBarArea, self.eyedropper.toolbar)
         self._build_menus()
         self._connect()
         self._update_title()
@@ -172,10 +192,21 @@ class DefinitionGUI(QMainWindow):
         self.save_action = self._action(file_menu, "&Save", QKeySequence.StandardKey.Save, self.files.save)
         self.save_as_action = self._action(file_menu, "Save &As…", QKeySequence("Ctrl+Shift+S"), self.files.save_as)
         file_menu.addSeparator()
+        self.export_action = self._action(file_menu, "&Export as Python script…", None, self.export_script)
+        file_menu.addSeparator()
         self.quit_action = self._action(file_menu, "&Quit", QKeySequence.StandardKey.Quit, self.close)
         self.open_action.setShortcut(QKeySequence("Ctrl+O"))
         self.save_action.setShortcut(QKeySequence("Ctrl+S"))
         self.quit_action.setShortcut(QKeySequence("Ctrl+Q"))
+
+        edit_menu = bar.addMenu("&Edit")
+        self.undo_action = self.undo.stack.createUndoAction(self, "&Undo")
+        self.undo_action.setShortcut(QKeySequence("Ctrl+Z"))
+        self.redo_action = self.undo.stack.createRedoAction(self, "&Redo")
+        self.redo_action.setShortcut(QKeySequence("Ctrl+Shift+Z"))
+        edit_menu.addActions([self.undo_action, self.redo_action])
+        edit_menu.addSeparator()
+        self.description_action = self._action(edit_menu, "&Description…", None, self.changes.edit_description)
 
         view_menu = bar.addMenu("&View")
         group = QActionGroup(self)
@@ -215,7 +246,18 @@ class DefinitionGUI(QMainWindow):
         self.source_bar.stepRequested.connect(self.worker.step)
         self.source_bar.folderUsed.connect(self.files.remember_folder)
         self.files.message.connect(self.show_message)
+        self.files.message.connect(lambda text: is_file_error(text) and self.message_area.show_dialog(text))
+        self.panels.pipeline_changed.connect(lambda: self.message_area.check_pipeline(self.system))
+        self.files.opened.connect(lambda _path: self.message_area.check_pipeline(self.system))
+        self.worker.positionChanged.connect(self.seek_bar.set_position)
+        self.worker.sourceOpened.connect(lambda _name, _kind: self.seek_bar.set_source(self.worker.source))
+        self.seek_bar.seekRequested.connect(self.worker.seek)
+        self.seek_bar.loopToggled.connect(lambda on: setattr(self.worker, "loop", on))
+        self.seek_bar.stillRateChanged.connect(lambda rate: setattr(self.worker, "still_rate", rate))
         self.files.pathChanged.connect(lambda _path: self._update_title())
+        self.files.opened.connect(lambda _path: (self.undo.reset(), self.changes.opened()))
+        self.files.saved.connect(lambda _path: self.undo.stack.setClean())
+        self.changes.modifiedChanged.connect(lambda _modified: self._update_title())
         self.files.opened.connect(lambda _path: self._follow_kind())
         self.panels.error.connect(lambda text: self.show_message(text, error=True))
         self.panels.pipeline_changed.connect(self._follow_kind)
@@ -253,6 +295,7 @@ class DefinitionGUI(QMainWindow):
         self._waiting_spec = None
         self._source_kind = kind
         self.show_message(f"{why}: opening {spec}…" if why else f"Opening {spec}…")
+        self.view3d.set_busy(f"opening {spec}…")  # a large cloud can take seconds: say so, not a black view
         self.worker.open_source(spec, kind)
 
     def ask_choice(self, title: str, labels: list[str]) -> str | None:
@@ -362,6 +405,7 @@ class DefinitionGUI(QMainWindow):
         self.last_shown_generation = shown.generation
         self.frame_rate.tick(time.perf_counter())
         self.source_bar.set_rates(self.frame_rate.rate(), results.seconds * 1000, self.worker.dropped)
+        self.message_area.show_detectors(detector_reasons(self.system, results))
         self.frameShown.emit(shown)
 
     @property
@@ -378,6 +422,9 @@ class DefinitionGUI(QMainWindow):
         results = results if results is not None else self._last_results
         if results is None:
             self.show_message("no frame on screen yet to select in", error=True)
+            return
+        if self.eyedropper.wants(self.stage_views.selection_modifiers):
+            self.eyedropper.pick(rect, results)
             return
         for callback in list(self.selection_callbacks):
             try:
@@ -400,18 +447,14 @@ class DefinitionGUI(QMainWindow):
         if isinstance(outcome, Exception):
             self.show_message(f"selection {where} failed: {outcome}", error=True)
             return
-        parts = []
-        if outcome.accepted:
-            parts.append(f"selection {where} taken by {', '.join(outcome.accepted)}")
-        parts += [f"{module} refused the selection: {reason}" for module, reason in outcome.refused.items()]
-        if not parts:
-            parts.append("no detector in the pipeline takes selections")
-        self.show_message("; ".join(parts), error=bool(outcome.refused))
+        self.show_message(*selection_report(self.system, rect, outcome))
         self.worker.reprocess()
 
     # -- window ---------------------------------------------------------------------------------------------
     def show_message(self, text: str, error: bool = False) -> None:
-        """Status bar: reports stay 10 s, errors 30 s (or until the next message)."""
+        """Status bar: reports stay 10 s, errors 30 s (or until the next message); the message area keeps
+        the last ones whole."""
+        self.message_area.add(text, error or is_file_error(text))
         if error:
             log.warning("%s", text)
         self.statusBar().showMessage(text, 30000 if error else 10000)
@@ -421,6 +464,10 @@ class DefinitionGUI(QMainWindow):
         self.mode_actions[mode].setChecked(True)
         self.settings.setValue("view/mode", mode)
 
+    def export_script(self, path: str | None = None) -> bool:
+        """File > Export as Python script (export_script.py); ``path`` None asks where."""
+        return export_dialog(self, self.system, self.files, self.show_message, path)
+
     def show_about(self) -> None:
         QMessageBox.about(self, "About objrec-define", ABOUT)
 
@@ -429,7 +476,8 @@ class DefinitionGUI(QMainWindow):
         name = path.name if path else "untitled"
         if path is None and self.files.origin:
             name += f", from the shipped {self.files.origin}"
-        self.setWindowTitle(f"objrec-define — {name} ({self.system.kind or 'empty'} pipeline)")
+        mark = "*" if self.changes.modified else ""  # the modified mark: unsaved changes
+        self.setWindowTitle(f"objrec-define — {name}{mark} ({self.system.kind or 'empty'} pipeline)")
         text = str(path) if path else "not saved yet"
         metrics = self.path_label.fontMetrics()
         self.path_label.setText(metrics.elidedText(text, Qt.TextElideMode.ElideMiddle, self.path_label.width() - 8))
@@ -452,6 +500,10 @@ class DefinitionGUI(QMainWindow):
         self.settings.sync()
 
     def closeEvent(self, event: QCloseEvent) -> None:  # noqa: N802 - Qt override
+        # Cancel (or a failed save) keeps the window; a window never shown has no one to ask.
+        if self.isVisible() and not self.changes.may_lose_changes("quitting"):
+            event.ignore()
+            return
         self.save_layout()
         self.worker.stop()
         self.panels.detach()

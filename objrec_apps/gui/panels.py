@@ -16,11 +16,22 @@ from importlib.metadata import entry_points
 from typing import Any
 
 from PySide6.QtCore import Qt, Signal
-from PySide6.QtWidgets import QFormLayout, QGroupBox, QHBoxLayout, QLabel, QPushButton, QVBoxLayout, QWidget
+from PySide6.QtWidgets import (
+    QFormLayout,
+    QGroupBox,
+    QHBoxLayout,
+    QLabel,
+    QPushButton,
+    QSlider,
+    QVBoxLayout,
+    QWidget,
+)
 
 from objrec_core import Change, ParameterError, Parametrizable
 
+from .changes import opened_values
 from .param_widgets import ParameterEditor, editor_for
+from .undo import gestures
 
 log = logging.getLogger(__name__)
 
@@ -78,7 +89,8 @@ class _Binding:
 
 
 class ParameterPanel(QGroupBox):
-    """The generated panel: one editor per declared parameter, a Restore-defaults button.
+    """The generated panel: one editor per declared parameter, and two Restore buttons: the values the
+    file (or starting system) was opened with, and the declared defaults.
 
     Titled with the module's id (and its type where the two differ). Only the parameters that matter with
     the current values are shown (``spec.is_relevant``), re-evaluated after every change; a change updates
@@ -105,6 +117,9 @@ class ParameterPanel(QGroupBox):
         for spec in self._specs.values():
             editor = editor_for(spec, self)
             editor.edited.connect(self._edited)
+            for slider in editor.findChildren(QSlider):  # a drag is one undo step (changes merge while held)
+                slider.sliderPressed.connect(gestures.begin)
+                slider.sliderReleased.connect(gestures.end)
             label = QLabel(spec.name)
             label.setToolTip(editor.toolTip())
             self.form.addRow(label, editor)
@@ -113,8 +128,15 @@ class ParameterPanel(QGroupBox):
             layout.addWidget(QLabel("no parameters"))
         buttons = QHBoxLayout()
         buttons.addStretch(1)
+        self.restore_opened_button = QPushButton("Restore opened values")
+        self.restore_opened_button.setToolTip("Set every parameter of this module back to the values the file "
+                                              "(or starting system) was opened with")
+        self.restore_opened_button.clicked.connect(self.restore_opened)
+        self.restore_opened_button.setEnabled(bool(self.editors))
+        buttons.addWidget(self.restore_opened_button)
         self.restore_button = QPushButton("Restore defaults")
-        self.restore_button.setToolTip("Set every parameter of this module back to its declared default")
+        self.restore_button.setToolTip("Set every parameter of this module back to its declared default (these "
+                                       "may pass everything: a filter's defaults keep the whole frame)")
         self.restore_button.clicked.connect(self.restore_defaults)
         self.restore_button.setEnabled(bool(self.editors))
         buttons.addWidget(self.restore_button)
@@ -163,8 +185,18 @@ class ParameterPanel(QGroupBox):
             self.editors[name].show_value(self.module.get_parameters()[name])
 
     def restore_defaults(self) -> None:
+        """The declared defaults (which may pass everything: the whole frame becomes one object)."""
+        self._restore(self.module.default_values())
+
+    def restore_opened(self) -> None:
+        """The values the file or starting system was opened with; a module added since was added with its
+        defaults, so it gets those."""
+        self._restore(opened_values(self.module) or self.module.default_values())
+
+    def _restore(self, values: dict[str, Any]) -> None:
+        """One set_parameters call: one notification, one undo step."""
         try:
-            self.module.reset_parameters()
+            self.module.set_parameters(**values)
         except (ParameterError, ValueError) as exc:
             self.error.emit(str(exc))
 

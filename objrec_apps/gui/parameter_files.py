@@ -32,6 +32,7 @@ class ParameterFiles(QObject):
     message = Signal(str)
     pathChanged = Signal(str)  # noqa: N815 - Qt's signal naming
     opened = Signal(str)
+    saved = Signal(str)
 
     def __init__(
         self,
@@ -48,6 +49,11 @@ class ParameterFiles(QObject):
         self.exclusive = exclusive
         self.path: Path | None = None
         self.origin: str | None = None
+        #: Asked before a file replaces what is on screen (``guard("opening another file")``): False stops.
+        #: The window asks about unsaved changes here.
+        self.guard: Callable[[str], bool] = lambda _what: True
+        #: Called before every write (the window brings a description that follows the values up to date).
+        self.before_write: Callable[[], None] = lambda: None
 
     # -- the folder dialogs start in ------------------------------------------------------------------------
     def last_folder(self) -> str:
@@ -72,7 +78,10 @@ class ParameterFiles(QObject):
 
     # -- the actions --------------------------------------------------------------------------------------
     def open(self, path: str | Path | None = None) -> bool:
-        """Ask for a file (unless given) and load it; False if cancelled or refused."""
+        """Ask for a file (unless given) and load it; False if cancelled or refused. Unsaved changes are
+        asked about first (``guard``)."""
+        if not self.guard("opening another file"):
+            return False
         if path is None:
             chosen, _ = QFileDialog.getOpenFileName(self.window, "Open a parameter file", self.last_folder(),
                                                     FILE_FILTER)
@@ -118,6 +127,7 @@ class ParameterFiles(QObject):
     def write(self, path: Path) -> bool:
         try:
             with self.exclusive():
+                self.before_write()
                 self.storage.save_parameters(path)
         except ParameterFileError as exc:
             self.message.emit(f"Not saved: {exc}")
@@ -125,4 +135,5 @@ class ParameterFiles(QObject):
         self.remember_folder(path)
         self.set_path(path)
         self.message.emit(f"Saved {path}")
+        self.saved.emit(str(path))
         return True

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 from collections import deque
 from collections.abc import Callable
+from pathlib import Path
 
 from PySide6.QtCore import Signal
 from PySide6.QtGui import QAction, QKeySequence
@@ -21,6 +22,21 @@ def file_filter(kind: str | None) -> str:
     patterns = " ".join(f"*{e}" for e in extensions)
     what = f"Files {kind} sources read" if kind else "Files the installed sources read"
     return f"{what} ({patterns});;All files (*)" if patterns else "All files (*)"
+
+
+def chooser_kind(name: str) -> str:
+    """Which entry of the chooser an open source's name is: demo, camera, file, folder, or any other spec."""
+    head = name.partition(":")[0].lower()
+    if head == "demo":
+        return "demo"
+    if head == "camera" and name.partition(":")[2].isdigit():
+        return "camera"
+    path = Path(name).expanduser()
+    if path.is_dir():
+        return "folder"
+    if path.is_file():
+        return "file"
+    return "spec"
 
 
 class FrameRate:
@@ -139,9 +155,20 @@ class SourceBar(QToolBar):
             self.pause_action.blockSignals(False)
 
     def set_source_name(self, name: str, ended: bool = False) -> None:
-        """Show the open source's own name (``demo:seed=3``, a file's path)."""
+        """Show the open source's own name (``demo:seed=3``, a file's path), and set the chooser to what it
+        is, so the bar never says "demo" with a file open (however the source was opened)."""
         self.name_label.setText(f" {name} (ended) " if ended else f" {name} ")
         self.name_label.setToolTip(name)
+        chosen = chooser_kind(name)
+        if self.kind.currentText() != chosen:
+            self.kind.blockSignals(True)
+            self.kind.setCurrentText(chosen)
+            self.kind.blockSignals(False)
+            self._kind_changed(chosen)
+        if chosen == "spec":
+            self.spec_edit.setText(name)
+        elif chosen == "camera":
+            self.camera_number.setValue(int(name.partition(":")[2] or 0))
 
     def set_waiting(self, spec: str) -> None:
         """A spec of several kinds waits for the pipeline to get a kind."""

@@ -128,6 +128,8 @@ class StageViews(QWidget):
         self._columns = 0
         self._cells: dict[str, _Cell] = {}
         self._results: StageResults | None = None
+        #: The keyboard modifiers of the last selection (read by the window while it hands the selection on).
+        self.selection_modifiers: Any = None
         #: Sizes of the views on screen, read by the processing thread to scale the next frame for them.
         self.display_sizes: dict[str, tuple[int, int]] = {}
         self.tabs = QTabWidget()
@@ -208,7 +210,7 @@ class StageViews(QWidget):
             cell = old.pop(item.key, None)
             if cell is None:
                 view = InteractiveImage()
-                view.areaSelected.connect(lambda rect, v=view: self.areaSelected.emit(rect, v.tag))
+                view.areaSelected.connect(lambda rect, v=view: self._selected(rect, v))
                 view.mouseMoved.connect(lambda point, k=item.key: self._hover(k, point))
                 view.mouseLeft.connect(lambda: self.hovered.emit(""))
                 cell = _Cell(item.title, view)
@@ -221,6 +223,13 @@ class StageViews(QWidget):
             for index in range(self.tabs.count()):
                 if self.tabs.tabText(index) == current:
                     self.tabs.setCurrentIndex(index)
+
+    def _selected(self, rect: Any, view: InteractiveImage) -> None:
+        self.selection_modifiers = view.selection_modifiers
+        try:
+            self.areaSelected.emit(rect, view.tag)
+        finally:
+            self.selection_modifiers = None
 
     # -- layout ---------------------------------------------------------------------------------------
     def set_mode(self, mode: str) -> None:

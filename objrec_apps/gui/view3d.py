@@ -7,13 +7,14 @@ import logging
 from collections.abc import Sequence
 from typing import Any
 
-from PySide6.QtCore import Qt
+from PySide6.QtCore import Qt, QTimer
 from PySide6.QtGui import QColor
 from PySide6.QtWidgets import (
     QCheckBox,
     QHBoxLayout,
     QHeaderView,
     QLabel,
+    QProgressBar,
     QPushButton,
     QSpinBox,
     QSplitter,
@@ -26,7 +27,8 @@ from PySide6.QtWidgets import (
 from objrec_core import DetectedObjectArray, Kind, Outline, StageResults
 
 from .cloud_render import CloudScene, layer_colour
-from .cloud_view import CloudView, box_frame
+from .cloud_view import box_frame
+from .gl_cloud_view import make_cloud_view
 
 log = logging.getLogger(__name__)
 
@@ -100,17 +102,38 @@ class DetectionsTable(QTableWidget):
 
 
 class View3D(QWidget):
-    """Controls (reset, point size, which layers to draw), the CloudView and the DetectionsTable."""
+    """Controls (reset, fits, grid, orbit centre, point size, which layers to draw), the cloud view (OpenGL
+    where it works, else the software one), the measured frame rate, a busy bar while waiting for data, and
+    the DetectionsTable."""
 
-    def __init__(self, parent: QWidget | None = None) -> None:
+    def __init__(self, parent: QWidget | None = None, prefer_gl: bool | None = None) -> None:
         super().__init__(parent)
-        self.cloud_view = CloudView()
+        self.cloud_view = make_cloud_view(prefer_gl=prefer_gl)
         self.table = DetectionsTable()
         controls = QHBoxLayout()
         reset = QPushButton("Reset view")
         reset.setToolTip("Back to the sensor's view of the whole cloud (also: double click, or R)")
         reset.clicked.connect(self.cloud_view.reset_view)
         controls.addWidget(reset)
+        self.fit_detections = QPushButton("Fit to detections")
+        self.fit_detections.setToolTip("Frame every detected box, from the direction you look from now (F)")
+        self.fit_detections.clicked.connect(self.cloud_view.fit_to_detections)
+        controls.addWidget(self.fit_detections)
+        self.fit_cloud = QPushButton("Fit to cloud")
+        self.fit_cloud.setToolTip("Frame the whole cloud, from the direction you look from now (A)")
+        self.fit_cloud.clicked.connect(self.cloud_view.fit_to_cloud)
+        controls.addWidget(self.fit_cloud)
+        self.orbit = QCheckBox("Orbit detections")
+        self.orbit.setToolTip("Dragging turns the view around the detected objects' centre (else around the "
+                              "middle of the view)")
+        self.orbit.setChecked(self.cloud_view.orbit_detections)
+        self.orbit.toggled.connect(self.cloud_view.set_orbit_detections)
+        controls.addWidget(self.orbit)
+        self.grid = QCheckBox("Grid")
+        self.grid.setToolTip("A ground grid under the cloud and the sensor's axes (x red, y green, z blue)")
+        self.grid.setChecked(self.cloud_view.show_grid)
+        self.grid.toggled.connect(self.cloud_view.set_grid)
+        controls.addWidget(self.grid)
         controls.addWidget(QLabel("Point size"))
         self.point_size = QSpinBox()
         self.point_size.setRange(1, 4)
@@ -120,8 +143,23 @@ class View3D(QWidget):
         self.layer_box = QHBoxLayout()
         controls.addLayout(self.layer_box)
         controls.addStretch(1)
+        self.busy = QProgressBar()
+        self.busy.setRange(0, 0)  # a moving bar: how long is not known
+        self.busy.setMaximumWidth(120)
+        self.busy.setTextVisible(False)
+        self.busy.hide()
+        controls.addWidget(self.busy)
         self.summary = QLabel()
         controls.addWidget(self.summary)
+        self.fps_label = QLabel()
+        self.fps_label.setToolTip("Frames the 3D view really drew in the last second, and the time of the last "
+                                  "one (" + ("OpenGL" if self.cloud_view.uses_opengl else "software renderer")
+                                  + ")")
+        controls.addWidget(self.fps_label)
+        self._fps_timer = QTimer(self)
+        self._fps_timer.setInterval(500)
+        self._fps_timer.timeout.connect(self.update_rate)
+        self._fps_timer.start()
         self._layer_checks: list[QCheckBox] = []
         splitter = QSplitter(Qt.Orientation.Vertical)
         splitter.addWidget(self.cloud_view)
@@ -133,8 +171,29 @@ class View3D(QWidget):
         layout.addLayout(controls)
         layout.addWidget(splitter, 1)
 
+    def update_rate(self) -> None:
+        """The frame-rate label: measured paints, not a target (0 while nothing moves)."""
+        view = self.cloud_view
+        self.fps_label.setText(f"{view.frames_per_second():.0f} fps · {view.frame_ms:.0f} ms"
+                               f"{' · GL' if view.uses_opengl else ''}")
+        if self.is_busy:
+            view.update()  # keeps the busy mark turning
+
+    @property
+    def is_busy(self) -> bool:
+        return bool(self.cloud_view.busy_text)
+
+    def set_busy(self, text: str) -> None:
+        """Say what the view waits for (a cloud loading, a pipeline's first 3D frame) until a frame comes;
+        "" ends it."""
+        self.cloud_view.set_busy(text)
+        self.busy.setVisible(bool(text))
+        self.busy.setToolTip(text)
+
     def show_results(self, results: StageResults, kind: Kind, scene: CloudScene | None = None) -> None:
         """Show a frame of data ``kind``; ``scene`` when already merged (by the worker thread)."""
+        if self.is_busy:
+            self.set_busy("")
         scene = scene if scene is not None else prepare_scene(results, kind)
         self._sync_layers(scene.names)
         objects = list(results.objects.objects)
@@ -143,10 +202,12 @@ class View3D(QWidget):
         self.table.show_objects(objects, outlines)
         self.summary.setText(f"{len(objects)} detected · {results.seconds * 1000:.0f} ms")
 
-    def clear(self) -> None:
+    def clear(self, waiting: str = "waiting for the first frame…") -> None:
+        """Empty the view; it shows ``waiting`` (busy) until the next frame."""
         self.cloud_view.set_scene(CloudScene(), [])
         self.table.show_objects([], [])
         self.summary.setText("")
+        self.set_busy(waiting)
 
     def _sync_layers(self, names: list[str]) -> None:
         if [c.text() for c in self._layer_checks] == names:

@@ -54,8 +54,10 @@ class _Watcher:
 class ProcessingWorker(QObject):
     """Runs frames from a source through a DefinitionDirector in a thread of its own.
 
-    ``fps_limit`` paces sources that are not cameras (the demo, files, folders), so the demo moves at its
-    natural speed and no core is burnt on frames nobody sees; ``None`` runs them flat out (benchmarks).
+    ``fps_limit`` paces sources that are not cameras, so no core is burnt on frames nobody sees; ``None``
+    runs them flat out (benchmarks). A recording plays at its own rate (``FrameSource.rate``: a 15 fps video
+    at 15), a source without one but of known length (a folder, a cloud file) at ``still_rate``, anything
+    else at ``fps_limit``. ``loop`` starts a seekable source again at its end; ``seek(n)`` jumps to frame n.
     """
 
     resultReady = Signal()  # noqa: N815 - Qt's signal naming
@@ -64,6 +66,8 @@ class ProcessingWorker(QObject):
     failed = Signal(str)
     pausedChanged = Signal(bool)  # noqa: N815 - Qt's signal naming
     callDone = Signal(object, object)  # noqa: N815 - Qt's signal naming
+    #: A frame was read: its index, the source's length (-1 unknown), where it came from (a folder's file).
+    positionChanged = Signal(int, int, str)  # noqa: N815 - Qt's signal naming
 
     def __init__(
         self,
@@ -76,6 +80,10 @@ class ProcessingWorker(QObject):
         super().__init__(parent)
         self.director = director
         self.fps_limit = fps_limit
+        #: Frames per second for sources of known length without a rate of their own (folders of images).
+        self.still_rate = 5.0
+        #: Start a seekable source again when it ends.
+        self.loop = False
         #: Called in the worker thread on every result (drawing, merging clouds), so the GUI only paints.
         self.prepare = prepare
         self._processing_lock = threading.Lock()
@@ -175,6 +183,35 @@ class ProcessingWorker(QObject):
         with self._cond:
             self._step_pending = True
             self._cond.notify_all()
+
+    def seek(self, index: int) -> None:
+        """Read frame ``index`` next (and process it, paused or not); ignored for sources that cannot seek."""
+
+        def command() -> None:
+            source = self._source
+            if source is None or not source.seekable:
+                return
+            try:
+                self._iterator = source.frames_from(index)
+            except Exception as exc:  # a source's own error: reported, the old position kept
+                self.failed.emit(f"{source.name}: cannot go to frame {index}: {exc}")
+                return
+            with self._cond:
+                self._ended = False
+                self._step_pending = True
+                self._last_read = 0.0
+
+        self._submit(command)
+
+    def frame_period(self) -> float | None:
+        """Seconds between two frames read from the open source; None reads as fast as it delivers."""
+        source = self._source
+        if self.fps_limit is None or source is None or getattr(source, "is_camera", False):
+            return None
+        rate = source.rate
+        if not rate or rate <= 0:
+            rate = self.still_rate if source.length is not None else self.fps_limit
+        return 1.0 / float(rate) if rate and rate > 0 else None
 
     def reprocess(self) -> None:
         """Parameters or the pipeline changed: show their effect as soon as possible."""
@@ -277,8 +314,6 @@ class ProcessingWorker(QObject):
             return True
         return self._source is not None and not self._paused and not self._ended
 
-    def _paced(self) -> bool:
-        return self.fps_limit is not None and not getattr(self._source, "is_camera", False)
 
     def _run(self) -> None:
         while True:
@@ -307,8 +342,9 @@ class ProcessingWorker(QObject):
                     return self._last_frame
             if self._source is None or self._ended or (self._paused and not self._step_pending):
                 return None
-            if self._paced() and self._last_read and not self._step_pending:
-                due = self._last_read + 1.0 / float(self.fps_limit or 1.0)
+            period = self.frame_period()
+            if period is not None and self._last_read and not self._step_pending:
+                due = self._last_read + period
                 while not (self._stopping or self._commands or self._reprocess_pending or self._paused):
                     remaining = due - time.perf_counter()
                     if remaining <= 0:
@@ -323,6 +359,11 @@ class ProcessingWorker(QObject):
         try:
             frame = next(iterator)
         except StopIteration:
+            frame = self._loop_round()
+            if frame is not None:
+                self._last_frame = frame
+                self._report_position(frame)
+                return frame
             self._ended = True
             self.sourceEnded.emit(self._source.name if self._source else "")
             return None
@@ -333,7 +374,21 @@ class ProcessingWorker(QObject):
             self.failed.emit(str(exc) if isinstance(exc, SourceError) else f"the source failed: {exc}")
             return None
         self._last_frame = frame
+        self._report_position(frame)
         return frame
+
+    def _loop_round(self) -> Frame | None:
+        """With ``loop`` on, the first frame of the source again (None when off or it cannot seek)."""
+        source = self._source
+        if not self.loop or source is None or not source.seekable:
+            return None
+        self._iterator = source.frames_from(0)
+        return next(self._iterator, None)
+
+    def _report_position(self, frame: Frame) -> None:
+        source = self._source
+        length = source.length if source is not None else None
+        self.positionChanged.emit(frame.index, -1 if length is None else int(length), frame.source)
 
     def _process(self, frame: Frame) -> None:
         wanted = self.director.system.kind

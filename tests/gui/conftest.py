@@ -36,7 +36,8 @@ def make_gui(qtbot: Any, settings: QSettings) -> Iterator[Callable[..., Definiti
     ) -> DefinitionGUI:
         options.setdefault("settings", settings)
         window = DefinitionGUI(system, **options)
-        qtbot.addWidget(window)
+        # A test's changes are not the user's: closing after the test asks nothing about them.
+        qtbot.addWidget(window, before_close_func=lambda w: w.changes.forget())
         windows.append(window)
         if size is not None:  # None keeps the size the settings restored
             window.resize(*size)
@@ -48,4 +49,5 @@ def make_gui(qtbot: Any, settings: QSettings) -> Iterator[Callable[..., Definiti
 
     yield make
     for window in windows:
+        window.changes.forget()
         window.close()

@@ -1,0 +1,139 @@
+"""Never lose work: whether the window holds unsaved changes, the question asked before they would be lost,
+the values each module was opened with (the first "Restore" choice), and the description saved in the file.
+
+The description follows the values unless the user wrote one: a description that is empty, or that is
+exactly what ``describe`` says of the values it was opened with, is regenerated from the modules on
+every save (so it never says "open" after the operation became "dilate"); any other text is the user's own
+and is saved as it is.
+"""
+
+from __future__ import annotations
+
+import weakref
+from collections.abc import Callable
+from enum import Enum
+from typing import Any
+
+from PySide6.QtCore import QObject, Signal
+from PySide6.QtGui import QUndoStack
+from PySide6.QtWidgets import QInputDialog, QMessageBox, QWidget
+
+from objrec_core import Detector, Parametrizable, RecognitionSystem
+
+#: The values each module had when its file (or starting system) was opened; weak, so removed modules go.
+_opened: weakref.WeakKeyDictionary[Parametrizable, dict[str, Any]] = weakref.WeakKeyDictionary()
+
+
+def remember_opened_values(system: RecognitionSystem) -> None:
+    """The values now in force are those the file (or starting system) was opened with."""
+    for module in system.modules:
+        _opened[module] = module.get_parameters()
+
+
+def opened_values(module: Parametrizable) -> dict[str, Any] | None:
+    """The values ``module`` was opened with; None for a module added since."""
+    return _opened.get(module)
+
+
+def _value(value: Any) -> str:
+    return f"{value:g}" if isinstance(value, float) else str(value)
+
+
+def describe(system: RecognitionSystem) -> str:
+    """One line saying what the pipeline does with its current values (relevant parameters only)."""
+    parts = []
+    for module in system.modules:
+        values = module.get_parameters()
+        shown = ", ".join(f"{name} {_value(values[name])}" for name in module.relevant_parameters())
+        what = f"{module.type_name} {module.id}"
+        if isinstance(module, Detector):
+            what += f" finds {system.object_name}"
+        parts.append(what + (f" ({shown})" if shown else ""))
+    return ("; ".join(parts) + ".") if parts else ""
+
+
+class Answer(Enum):
+    SAVE = "save"
+    DISCARD = "discard"
+    CANCEL = "cancel"
+
+
+class ChangeTracker(QObject):
+    """The window's document state: modified or not (from the undo stack's clean state), the question
+    before losing changes, the opened values and the description policy.
+
+    ``save`` is called for the Save answer and says whether it saved; ``ask`` may be replaced (a test, an
+    embedding app) and returns an Answer for a question text.
+    """
+
+    modifiedChanged = Signal(bool)  # noqa: N815 - Qt's signal naming
+
+    def __init__(self, system: RecognitionSystem, stack: QUndoStack, window: QWidget,
+                 save: Callable[[], bool]) -> None:
+        super().__init__(window)
+        self.system = system
+        self.stack = stack
+        self.window = window
+        self.save = save
+        self.ask: Callable[[str], Answer] = self.ask_with_dialog
+        self.description_is_users = False
+        self.stack.cleanChanged.connect(lambda clean: self.modifiedChanged.emit(not clean))
+        self.opened()
+
+    @property
+    def modified(self) -> bool:
+        return not self.stack.isClean()
+
+    def opened(self) -> None:
+        """A file or starting system was opened: remember its values; its description is the user's own
+        unless it is what ``describe`` says of these values."""
+        remember_opened_values(self.system)
+        text = self.system.description
+        self.description_is_users = bool(text) and text != describe(self.system)
+
+    def before_save(self) -> None:
+        """Bring a description that follows the values up to date (no undo step: the save makes it)."""
+        if not self.description_is_users and self.system.modules:
+            self.system.set_identity(self.system.object_name, describe(self.system), notify=False)
+
+    def set_description(self, text: str) -> None:
+        """The user's own description; an empty one follows the values again."""
+        self.description_is_users = bool(text.strip())
+        self.system.description = text.strip() if text.strip() else describe(self.system)
+
+    def edit_description(self) -> None:
+        """Ask for the description in a dialog."""
+        text, ok = QInputDialog.getMultiLineText(
+            self.window, "Description",
+            "What this parameter file finds (leave empty to have it follow the values):",
+            self.system.description if self.description_is_users else "")
+        if ok:
+            self.set_description(text)
+
+    def forget(self) -> None:
+        """Treat the changes as saved (an embedding app or a test closing without asking)."""
+        self.stack.setClean()
+
+    # -- the question -------------------------------------------------------------------------------------
+    def ask_with_dialog(self, question: str) -> Answer:
+        box = QMessageBox(QMessageBox.Icon.Warning, "Unsaved changes", question,
+                          QMessageBox.StandardButton.Save | QMessageBox.StandardButton.Discard
+                          | QMessageBox.StandardButton.Cancel, self.window)
+        box.setObjectName("unsaved_changes")
+        box.setDefaultButton(QMessageBox.StandardButton.Save)
+        answer = box.exec()
+        if answer == QMessageBox.StandardButton.Save:
+            return Answer.SAVE
+        if answer == QMessageBox.StandardButton.Discard:
+            return Answer.DISCARD
+        return Answer.CANCEL
+
+    def may_lose_changes(self, what: str) -> bool:
+        """Before ``what`` ("quitting", "opening another file") would lose unsaved changes: True to go on
+        (nothing unsaved, saved, or discarded), False to stop (cancelled, or the save failed)."""
+        if not self.modified:
+            return True
+        answer = self.ask(f"The parameters have unsaved changes. Save them before {what}?")
+        if answer is Answer.SAVE:
+            return bool(self.save())
+        return answer is Answer.DISCARD
