@@ -250,7 +250,7 @@ class DefinitionGUI(QMainWindow):
         self.panels.pipeline_changed.connect(lambda: self.message_area.check_pipeline(self.system))
         self.files.opened.connect(lambda _path: self.message_area.check_pipeline(self.system))
         self.worker.positionChanged.connect(self.seek_bar.set_position)
-        self.worker.sourceOpened.connect(lambda _name, _kind: self.seek_bar.set_source(self.worker.source))
+        self.worker.sourceFacts.connect(self.seek_bar.set_source)
         self.seek_bar.seekRequested.connect(self.worker.seek)
         self.seek_bar.loopToggled.connect(lambda on: setattr(self.worker, "loop", on))
         self.seek_bar.stillRateChanged.connect(lambda rate: setattr(self.worker, "still_rate", rate))
@@ -507,5 +507,6 @@ class DefinitionGUI(QMainWindow):
         self.save_layout()
         self.worker.stop()
         self.panels.detach()
+        self.undo.detach()  # a closed window leaves no observer on the modules (a caller may keep the system)
         super().closeEvent(event)
 

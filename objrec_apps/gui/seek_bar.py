@@ -8,12 +8,28 @@ folders, cloud files, bags); a camera or an endless demo has nothing to seek in.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from pathlib import Path
 
 from PySide6.QtCore import Qt, Signal
 from PySide6.QtWidgets import QCheckBox, QDoubleSpinBox, QLabel, QSlider, QToolBar, QWidget
 
 from objrec_core import FrameSource
+
+
+@dataclass(frozen=True)
+class SourceFacts:
+    """What the seek bar needs of a source, read once in the processing thread: a bag or video must not be
+    read from the GUI thread while the worker reads (or closes) it."""
+
+    name: str
+    length: int | None
+    seekable: bool
+    rate: float | None
+
+    @classmethod
+    def of(cls, source: FrameSource) -> SourceFacts:
+        return cls(source.name, source.length, source.seekable, source.rate)
 
 
 class SeekBar(QToolBar):
@@ -63,7 +79,7 @@ class SeekBar(QToolBar):
         self.source_name = ""
         self.set_source(None)
 
-    def set_source(self, source: FrameSource | None) -> None:
+    def set_source(self, source: SourceFacts | None) -> None:
         """Follow a newly opened source: a range for seekable ones of known length, disabled otherwise; the
         rate box only where the source has no rate of its own."""
         length = source.length if source is not None else None

@@ -23,6 +23,8 @@ from PySide6.QtCore import QObject, Signal
 
 from objrec_core import Change, DefinitionDirector, Frame, FrameSource, SourceError, StageResults, open_source
 
+from .seek_bar import SourceFacts
+
 log = logging.getLogger(__name__)
 
 
@@ -61,6 +63,7 @@ class ProcessingWorker(QObject):
     """
 
     resultReady = Signal()  # noqa: N815 - Qt's signal naming
+    sourceFacts = Signal(object)  # noqa: N815 - Qt's signal naming: the SourceFacts of the source just opened
     sourceOpened = Signal(str, str)  # noqa: N815 - Qt's signal naming: the source's name and data kind ("" unknown)
     sourceEnded = Signal(str)  # noqa: N815 - Qt's signal naming
     failed = Signal(str)
@@ -102,6 +105,7 @@ class ProcessingWorker(QObject):
         self._iterator: Iterator[Frame] | None = None
         self._ended = False
         self._last_frame: Frame | None = None
+        self._facts: SourceFacts | None = None
         self._last_read = 0.0  # when reading the previous new frame began: the frame-rate clock
         self._generation = 0
         self._processing_generation = 0
@@ -208,9 +212,11 @@ class ProcessingWorker(QObject):
         source = self._source
         if self.fps_limit is None or source is None or getattr(source, "is_camera", False):
             return None
-        rate = source.rate
+        facts = self._facts if self._facts is not None and self._facts.name == source.name else None
+        rate = facts.rate if facts is not None else None
         if not rate or rate <= 0:
-            rate = self.still_rate if source.length is not None else self.fps_limit
+            known_length = facts is not None and facts.length is not None
+            rate = self.still_rate if known_length else self.fps_limit
         return 1.0 / float(rate) if rate and rate > 0 else None
 
     def reprocess(self) -> None:
@@ -305,6 +311,13 @@ class ProcessingWorker(QObject):
         self._last_read = 0.0
         if old is not None and old is not source:
             old.close()
+        try:
+            facts: SourceFacts | None = SourceFacts.of(source)
+        except Exception as exc:  # a recording that cannot say its length or rate: played, not seekable
+            log.warning("%s: length and rate unknown: %s", source.name, exc)
+            facts = None
+        self._facts = facts
+        self.sourceFacts.emit(facts)
         self.sourceOpened.emit(source.name, self._source_kind or "")
 
     def _has_work(self) -> bool:

@@ -17,6 +17,10 @@ from objrec_apps.gui import DefinitionGUI
 from objrec_core import RecognitionSystem
 
 
+def unexpected_question(question: str) -> Any:
+    raise AssertionError(f"the window asked a question the test did not expect: {question!r}")
+
+
 @pytest.fixture
 def settings(tmp_path: Path) -> QSettings:
     return QSettings(str(tmp_path / "objrec-define.ini"), QSettings.Format.IniFormat)
@@ -32,10 +36,15 @@ def make_gui(qtbot: Any, settings: QSettings) -> Iterator[Callable[..., Definiti
         *,
         wait: bool = True,
         size: tuple[int, int] | None = (1200, 800),
+        questions: bool = False,
         **options: Any,
     ) -> DefinitionGUI:
         options.setdefault("settings", settings)
         window = DefinitionGUI(system, **options)
+        if not questions:
+            # A modal question nobody answers would hang the run: unless the test answers the real dialog
+            # (``questions=True``), asking about unsaved changes fails the test at once.
+            window.changes.ask = unexpected_question
         # A test's changes are not the user's: closing after the test asks nothing about them.
         qtbot.addWidget(window, before_close_func=lambda w: w.changes.forget())
         windows.append(window)

@@ -49,7 +49,8 @@ def test_the_views_paint_frames_scaled_in_the_processing_thread(make_gui, qtbot)
         assert abs(view._display.width - area.width()) <= 1 and abs(view._display.height - area.height()) <= 1
         picture = view.grab().toImage()
         left, top = round(area.left()), round(area.top())
-        for x, y in ((5, 5), (view._display.width // 2, view._display.height // 3), (200, 300)):
+        width, height = view._display.width, view._display.height
+        for x, y in ((5, 5), (width // 2, height // 3), (width * 2 // 3, height * 4 // 5)):
             shown = picture.pixelColor(left + x, top + y)
             expected = view._display.array[y, x]  # painted 1:1, no scaling in the GUI thread
             assert (shown.blue(), shown.green(), shown.red()) == tuple(int(c) for c in expected[:3]), key

@@ -12,6 +12,7 @@ import yaml
 from PySide6.QtWidgets import QFileDialog
 
 from objrec_apps.define import starting_system
+from objrec_apps.gui.changes import Answer
 from objrec_apps.gui.param_widgets import BoolEditor, ChoiceEditor, NumberEditor, TextEditor
 from objrec_core import ParameterStorage
 
@@ -34,6 +35,13 @@ def patch_dialogs(monkeypatch, open_path: Path | None = None, save_path: Path | 
     monkeypatch.setattr(QFileDialog, "getOpenFileName", staticmethod(get_open))
     monkeypatch.setattr(QFileDialog, "getSaveFileName", staticmethod(get_save))
     return calls
+
+
+def discard_when_asked(gui) -> list[str]:
+    """Answer Discard to the unsaved-changes question; returns the questions asked."""
+    asked: list[str] = []
+    gui.changes.ask = lambda question: (asked.append(question), Answer.DISCARD)[1]
+    return asked
 
 
 def change_every_value_through_the_panels(gui) -> None:
@@ -87,7 +95,9 @@ def test_save_then_open_restores_every_value(make_gui, monkeypatch, tmp_path, sy
         module.reset_parameters()
     assert values(gui.system) != expected
     patch_dialogs(monkeypatch, open_path=saved)
+    asked = discard_when_asked(gui)  # the resets are unsaved changes: opening asks first
     gui.open_action.trigger()
+    assert len(asked) == 1 and "opening another file" in asked[0]
     assert values(gui.system) == expected
     assert gui.system.modules == modules  # the same pipeline: modules (and panels) kept
     shown = 0
@@ -138,7 +148,9 @@ def test_opening_a_broken_file_changes_nothing_and_says_why(make_gui, monkeypatc
     broken = tmp_path / "broken.yaml"
     broken.write_text(text)
     patch_dialogs(monkeypatch, open_path=broken)
+    asked = discard_when_asked(gui)
     gui.open_action.trigger()
+    assert len(asked) == 1  # discarding only lets the open go on: a failed open still changes nothing
     assert gui.system.modules == modules and values(gui.system) == before
     message = gui.statusBar().currentMessage()
     assert message.startswith(f"Not opened: {broken}") and expected in message
@@ -180,6 +192,7 @@ def test_the_feature_target_survives_save_and_open(make_gui, monkeypatch, tmp_pa
     detector.clear_target()
     detector.reset_parameters()
     patch_dialogs(monkeypatch, open_path=path)
+    discard_when_asked(gui)
     gui.open_action.trigger()
     restored = gui.system.module("poster")
     assert restored.get_parameters() == expected

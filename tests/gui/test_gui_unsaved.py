@@ -27,7 +27,7 @@ def answer_with(button: QMessageBox.StandardButton, asked: list[str]) -> None:
 
 
 def hsv_window(make_gui):
-    return make_gui(starting_system("hsv"), paused=True, wait=False)
+    return make_gui(starting_system("hsv"), paused=True, wait=False, questions=True)
 
 
 def test_quit_with_unsaved_changes_asks_and_cancel_keeps_the_window(make_gui):
@@ -99,7 +99,7 @@ def test_restore_the_opened_values_or_the_declared_defaults(make_gui):
 def test_the_description_follows_the_values_unless_it_is_the_users(make_gui, monkeypatch, tmp_path):
     system = starting_system("hsv")
     system.description = ""  # a system nobody described
-    gui = make_gui(system, paused=True, wait=False)
+    gui = make_gui(system, paused=True, wait=False, questions=True)
     morphology = gui.system.module("open")
     morphology.set_parameters(operation="dilate")
     target = tmp_path / "generated.yaml"
