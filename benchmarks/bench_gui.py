@@ -298,12 +298,14 @@ def main() -> int:
         print(f"  {label:42s} {result['displayed_fps']:6.1f} frames/s displayed in all {result['views']} views, "
               f"{result['processed_fps']:6.1f} processed, {result['dropped']} dropped "
               f"(views at {result['scale']:.2f}x)")
+        gui.changes.forget()  # the benchmark's changes: close without asking
         gui.close()
         app.processEvents()
 
     gui = open_window("demo", 30.0, settings)
     running = change_delays(app, gui, args.changes, paused=False)
     paused = change_delays(app, gui, args.changes, paused=True)
+    gui.changes.forget()
     gui.close()
     for label, delays in (("running at 30 fps", running), ("paused", paused)):
         print(f"  parameter change -> displayed, {label:18s} median {statistics.median(delays) * 1000:5.1f} ms, "

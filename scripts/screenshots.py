@@ -70,6 +70,12 @@ def window(system: RecognitionSystem | None, settings: QSettings, mode: str, sou
     return gui
 
 
+def close(gui: DefinitionGUI) -> None:
+    """Close without the unsaved-changes question: the tuning here was for the picture only."""
+    gui.changes.forget()
+    gui.close()
+
+
 def save(app: QApplication, gui: DefinitionGUI, path: Path) -> None:
     settle(app)
     gui.grab().save(str(path))
@@ -81,7 +87,7 @@ def empty_window(app: QApplication, settings: QSettings, out: Path) -> None:
     settle(app)
     gui.pipeline_menu.populate()
     save(app, gui, out / "define_empty.png")
-    gui.close()
+    close(gui)
 
 
 def hsv(app: QApplication, settings: QSettings, out: Path) -> None:
@@ -95,7 +101,7 @@ def hsv(app: QApplication, settings: QSettings, out: Path) -> None:
     gui.stage_views.tabs.setCurrentIndex(1)
     hover(gui, "colour", "blue")
     save(app, gui, out / "define_hsv_blue_tabs.png")
-    gui.close()
+    close(gui)
 
 
 def feature(app: QApplication, settings: QSettings, out: Path) -> None:
@@ -110,7 +116,7 @@ def feature(app: QApplication, settings: QSettings, out: Path) -> None:
     wait_until(app, lambda: detector.target is not None)
     step_to(app, gui, 75)
     save(app, gui, out / "define_feature.png")
-    gui.close()
+    close(gui)
 
 
 def shape(app: QApplication, settings: QSettings, out: Path) -> None:
@@ -122,19 +128,108 @@ def shape(app: QApplication, settings: QSettings, out: Path) -> None:
     view.camera.zoom(0.75)
     gui.view3d.point_size.setValue(2)  # through its spin box, as a user would
     save(app, gui, out / "define_shape.png")
-    gui.close()
+    close(gui)
+
+
+def drag(view: object, start: QPointF, end: QPointF, modifiers: object = Qt.KeyboardModifier.NoModifier) -> None:
+    """A mouse drag on a stage view, in widget coordinates, as a user's hand would make it."""
+    left, none = Qt.MouseButton.LeftButton, Qt.MouseButton.NoButton
+    steps = [(QEvent.Type.MouseButtonPress, start, left, left)]
+    steps += [(QEvent.Type.MouseMove, start + (end - start) * (i / 4), left, none) for i in range(1, 5)]
+    steps.append((QEvent.Type.MouseButtonRelease, end, none, left))
+    for kind, pos, buttons, button in steps:
+        event = QMouseEvent(kind, pos, QPointF(view.mapToGlobal(pos.toPoint())), button, buttons, modifiers)
+        QApplication.sendEvent(view, event)
+
+
+def eyedropper(app: QApplication, settings: QSettings, out: Path) -> None:
+    """The HSV filter opened wide, then set by one Shift+drag inside the red disk."""
+    system = starting_system("hsv")
+    system.module("colour").reset_parameters()  # pass-everything: the eyedropper sets the ranges
+    gui = window(system, settings, "grid")
+    step_to(app, gui, 0)
+    x, y = next(o["centroid"] for o in gui.last_results.frame.truth["objects"] if o["name"] == "red")
+    view = gui.stage_views.view("input")
+    generation = gui.worker.generation
+    drag(view, view.to_widget(QPointF(x - 20, y - 20)), view.to_widget(QPointF(x + 20, y + 20)),
+         Qt.KeyboardModifier.ShiftModifier)
+    wait_until(app, lambda: gui.last_shown_generation > generation)
+    save(app, gui, out / "define_eyedropper.png")
+    close(gui)
+
+
+def messages(app: QApplication, settings: QSettings, out: Path) -> None:
+    """A refused file and a detector moved above its filter, both kept whole in the message area."""
+    gui = window(starting_system("hsv"), settings, "grid")
+    step_to(app, gui, 0)
+    with tempfile.TemporaryDirectory() as folder:
+        broken = Path(folder) / "tuned.yaml"
+        broken.write_text("format_version: 1\nkind: 2d\npipeline:\n- type: HSVFilter\n  id: colour\n"
+                          "  parameters: {h_min: 300}\n")
+        gui.files.load(broken)
+    settle(app)
+    if gui.message_area.dialog is not None:
+        gui.message_area.dialog.close()  # the dialog said it too; the picture shows the kept message
+    gui.system.move_module("blobs", 0)
+    wait_until(app, lambda: gui.last_shown_generation >= gui.worker.generation)
+    gui.resizeDocks([gui.message_area], [200], Qt.Orientation.Vertical)
+    save(app, gui, out / "define_messages.png")
+    close(gui)
+
+
+def seek_folder(app: QApplication, settings: QSettings, out: Path) -> None:
+    """A folder of pictures: the seek bar's counter and the name of the file on screen."""
+    import cv2
+
+    from objrec2d import DemoScene
+
+    with tempfile.TemporaryDirectory() as folder:
+        scene = DemoScene()
+        for index in range(0, 60, 3):
+            cv2.imwrite(str(Path(folder) / f"shelf_{index:03d}.png"), scene.render(index)[0])
+        gui = window(starting_system("hsv"), settings, "tabs", source=folder)
+        wait_until(app, lambda: gui.seek_bar.slider.isEnabled())
+        gui.seek_bar.slider.setValue(12)  # as a click on the bar does: frame 13 of 20
+        wait_until(app, lambda: gui.last_results is not None and gui.last_results.frame.index == 12)
+        save(app, gui, out / "define_seek_folder.png")
+        close(gui)
+
+
+def mug(app: QApplication, settings: QSettings, out: Path) -> None:
+    """The real mug scan (PCL's cylinder tutorial), the view fitted to the cylinder the pipeline finds."""
+    scan = Path(__file__).resolve().parents[2] / "shared" / "data" / "clouds" / "table_scene_mug_stereo_textured.pcd"
+    if not scan.is_file():
+        print(f"skipped define_mug.png: {scan} is absent", file=sys.stderr)
+        return
+    from objrec3d import DistanceFilter, PlaneRemovalFilter, ShapeDetector
+
+    system = RecognitionSystem([DistanceFilter(max_distance=1.5), PlaneRemovalFilter(), ShapeDetector()],
+                               object_name="mug")
+    gui = window(system, settings, "grid", source=str(scan))
+    step_to(app, gui, 0)
+    wait_until(app, lambda: not gui.view3d.is_busy)
+    assert len(gui.last_results.objects.objects) == 1, "the mug was not found"
+    view = gui.view3d.cloud_view
+    view.camera.rotate(0.3, -0.2)
+    gui.view3d.fit_detections.click()
+    view.camera.zoom(2.5)  # the table around the mug too
+    gui.view3d.point_size.setValue(2)
+    save(app, gui, out / "define_mug.png")
+    close(gui)
 
 
 def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--out", type=Path, default=Path(__file__).resolve().parents[1] / "docs" / "images")
-    parser.add_argument("--only", choices=("empty", "hsv", "feature", "shape"), action="append")
+    parser.add_argument("--only", action="append",
+                        choices=("empty", "hsv", "feature", "shape", "mug", "eyedropper", "messages", "seek"))
     args = parser.parse_args()
     args.out.mkdir(parents=True, exist_ok=True)
     app = QApplication.instance() or QApplication(sys.argv[:1])
     with tempfile.TemporaryDirectory() as folder:
         settings = QSettings(str(Path(folder) / "settings.ini"), QSettings.Format.IniFormat)
-        makers = {"empty": empty_window, "hsv": hsv, "feature": feature, "shape": shape}
+        makers = {"empty": empty_window, "hsv": hsv, "feature": feature, "shape": shape, "mug": mug,
+                  "eyedropper": eyedropper, "messages": messages, "seek": seek_folder}
         for name in args.only or list(makers):
             makers[name](app, settings, args.out)
             settings.clear()

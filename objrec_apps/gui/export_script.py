@@ -12,6 +12,7 @@ This module names no kind package: the import of each module class comes from th
 from __future__ import annotations
 
 import base64
+import builtins
 import importlib
 import keyword
 from collections.abc import Callable, Mapping
@@ -67,7 +68,7 @@ def _literal(value: Any, indent: int = 0) -> str:
 def _variable(module_id: str, taken: set[str]) -> str:
     """A lower-case Python name for a module id (ids may hold characters a name cannot, or be a class's name)."""
     name = "".join(c if c.isalnum() or c == "_" else "_" for c in module_id).lower() or "module"
-    if name[0].isdigit() or keyword.iskeyword(name):
+    if name[0].isdigit() or keyword.iskeyword(name) or hasattr(builtins, name):  # ``open`` would hide open()
         name = f"m_{name}"
     base, n = name, 2
     while name in taken:

@@ -88,6 +88,10 @@ def default_settings() -> QSettings:
     return QSettings("objrec", "objrec-define")
 
 
+#: The message dock's height on a first run, in pixels: the detector line and about four messages.
+MESSAGES_HEIGHT = 130
+
+
 class DefinitionGUI(QMainWindow):
     """The definition window for one RecognitionSystem (the object is kept; File>Open may replace its
     modules). ``source`` is a spec (``demo``, ``camera:0``, a path) or an open FrameSource. A spec that
@@ -221,6 +225,9 @@ class DefinitionGUI(QMainWindow):
         view_menu.addSeparator()
         view_menu.addAction(self.panel_dock.toggleViewAction())
         view_menu.addAction(self.source_bar.toggleViewAction())
+        view_menu.addAction(self.seek_bar.toggleViewAction())
+        view_menu.addAction(self.eyedropper.toolbar.toggleViewAction())
+        view_menu.addAction(self.message_area.toggleViewAction())
 
         bar.addMenu(self.pipeline_menu)
         help_menu = bar.addMenu("&Help")
@@ -492,6 +499,8 @@ class DefinitionGUI(QMainWindow):
             self.resize(1280, 800)
         if isinstance(state, QByteArray | bytes):
             self.restoreState(QByteArray(state))
+        else:  # a first run: the messages take a strip at the bottom, the views the room
+            self.resizeDocks([self.message_area], [MESSAGES_HEIGHT], Qt.Orientation.Vertical)
 
     def save_layout(self) -> None:
         self.settings.setValue("window/geometry", self.saveGeometry())

@@ -67,7 +67,7 @@ def pipeline_warnings(system: RecognitionSystem) -> list[str]:
                             f"{', '.join(later)}: it detects on the frame as it stands above them, "
                             "without their output")
     if modules and not any(isinstance(m, Detector) for m in modules):
-        warnings.append("the pipeline has no detector: it finds nothing (Pipeline > Add a detector)")
+        warnings.append("the pipeline has no detector: it finds nothing (add one from the Pipeline menu)")
     return warnings
 
 

@@ -94,7 +94,7 @@ class SeekBar(QToolBar):
         self.loop_box.setEnabled(seekable)
         own_rate = source.rate if source is not None else None
         self.rate_box.setEnabled(source is not None and not own_rate and length is not None)
-        self.rate_label.setText(f" {own_rate:.3g} frames/s (recorded) " if own_rate else " rate ")
+        self.rate_label.setText(f" {own_rate:.3g} frames/s (the source's own) " if own_rate else " rate ")
         self.counter.setText(" no recording to seek in " if not seekable else f" frame - / {length} ")
         self.file_label.setText("")
 
