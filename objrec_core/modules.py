@@ -75,6 +75,19 @@ class Detector(Parametrizable):
     def detect(self, frame: Any) -> list[Any]:
         """Return the objects found in the frame, each named ``self.object_name``."""
 
+    @property
+    def last_reason(self) -> str | None:
+        """Why the last ``detect`` found nothing, in words a user can act on ("too few matches: 6 of 10
+        needed"); None when it found something, before any frame, or for a detector that gives no reasons.
+        The GUI's message area and ``objrec-detect --explain`` show it; a detector keeps it per instance."""
+        return None
+
+    def ready(self) -> str | None:
+        """None when this detector can detect; else why not, in words a user can act on ("no target: select
+        one in objrec-define first"). A headless run refuses to start with a detector that is not ready; the
+        GUI runs anyway, since that is where the user makes it ready."""
+        return None
+
     def process_area_selection(self, rect: Rect, frame: Any) -> None:
         """A user selected ``rect`` in ``frame`` (as this detector sees it). Default: ignored.
 
