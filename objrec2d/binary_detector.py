@@ -1,39 +1,122 @@
-"""BinaryDetector: every blob of non-zero pixels with a plausible outline length is an object."""
+"""BinaryDetector: every blob of non-zero pixels with a plausible outline is an object.
+
+A blob that touches the image border is cut off by the frame, or is the background itself (a filter that let
+everything through turns the whole frame into one blob, whose outline is only 2,236 px on a 640x480 frame):
+neither is an object unless ``border_blobs`` asks for them. A blob covering most of the image is dropped too
+(``max_area_fraction``), so the background stays out even then. When nothing is kept, ``last_reason`` says
+which rule dropped the blobs, with numbers to tune by.
+"""
 
 from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
 
 import cv2
 import numpy as np
 
-from objrec_core import Float, Ordered
+from objrec_core import Bool, Float, Ordered
 
 from .base import ImageDetector, as_gray
 from .messages import DetectedObject2D, Polygon
 
 
+@dataclass
+class _Dropped:
+    """How many blobs each rule dropped, and the value nearest to passing it, for the reason."""
+
+    short: list[float] = field(default_factory=list)
+    long: list[float] = field(default_factory=list)
+    border: int = 0
+    large: list[float] = field(default_factory=list)
+
+
 class BinaryDetector(ImageDetector):
     """External contours of the non-zero pixels; each whose length (perimeter in pixels) lies within the
-    bounds becomes an object outlined by its convex hull. Given a colour image it converts it to grey once."""
+    bounds, that stays clear of the image border and covers no more than ``max_area_fraction`` of the image
+    becomes an object outlined by its convex hull. Given a colour image it converts it to grey once."""
 
-    # The sliders stop at 5000 px (a 640x480 frame's border is 2240 px); a typed value may reach 20000 for big
-    # frames. Both share one range, so the two sliders line up and the minimum can follow the maximum.
+    # The sliders stop at 5000 px (a 640x480 frame's own outline is 2236 px); a typed value may reach 20000 for
+    # big frames. Both share one range, so the two sliders line up and the minimum can follow the maximum.
     min_contour_length = Float(
         40.0, "Shortest outline kept, in pixels; drops specks", min=0.0, max=20000.0, soft_max=5000.0, step=1.0
     )
     max_contour_length = Float(
-        5000.0, "Longest outline kept, in pixels; drops the whole-image blob", min=0.0, max=20000.0, soft_max=5000.0,
-        step=1.0,
+        5000.0,
+        "Longest outline kept, in pixels; drops large blobs (a 640x480 frame's own outline is 2236 px, so this "
+        "alone does not drop the background: border_blobs and max_area_fraction do)",
+        min=0.0, max=20000.0, soft_max=5000.0, step=1.0,
     )
     length_order = Ordered("min_contour_length", "max_contour_length", why="nothing could ever be found")
+    border_blobs = Bool(
+        False,
+        "Keep blobs that touch the image border (objects cut off by the frame edge); off, they are dropped with "
+        "the background they usually are",
+    )
+    max_area_fraction = Float(
+        0.9,
+        "Largest blob kept, as a share of the image area (its outline's area); drops a background that passed the "
+        "filters. 1 keeps every size",
+        min=0.0, max=1.0, step=0.01,
+    )
+
+    def __init__(self, id: str | None = None, *, object_name: str | None = None, **parameters: Any) -> None:
+        self._last_reason: str | None = None
+        super().__init__(id, object_name=object_name, **parameters)
+
+    @property
+    def last_reason(self) -> str | None:
+        """Why the last frame gave no object: an empty mask, or which rules dropped how many blobs."""
+        return self._last_reason
 
     def detect(self, frame: np.ndarray) -> list[DetectedObject2D]:
         p = self.params
         lo, hi = p.min_contour_length, p.max_contour_length
-        contours, _ = cv2.findContours(as_gray(frame), cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_SIMPLE)
+        mask = as_gray(frame)
+        height, width = mask.shape
+        max_area = p.max_area_fraction * width * height
+        contours, _ = cv2.findContours(mask, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_SIMPLE)
         name = self.object_name
         found = []
+        dropped = _Dropped()
         for contour in contours:
-            if lo <= cv2.arcLength(contour, True) <= hi:
-                hull = cv2.convexHull(contour)
-                found.append(DetectedObject2D(name, Polygon.from_xy(hull.reshape(-1, 2))))
+            length = cv2.arcLength(contour, True)
+            if length < lo:
+                dropped.short.append(length)
+                continue
+            if length > hi:
+                dropped.long.append(length)
+                continue
+            if not p.border_blobs:
+                x, y, w, h = cv2.boundingRect(contour)
+                if x == 0 or y == 0 or x + w == width or y + h == height:
+                    dropped.border += 1
+                    continue
+            area = cv2.contourArea(contour)
+            if area > max_area:
+                dropped.large.append(area / (width * height))
+                continue
+            hull = cv2.convexHull(contour)
+            found.append(DetectedObject2D(name, Polygon.from_xy(hull.reshape(-1, 2))))
+        self._last_reason = None if found else self._reason(len(contours), dropped)
         return found
+
+    def _reason(self, blobs: int, dropped: _Dropped) -> str:
+        """Why no blob was kept: each rule with its count and the value nearest to passing it."""
+        if blobs == 0:
+            return "no blob: the mask has no non-zero pixel (the filters before let nothing through)"
+        p = self.params
+        parts = []
+        if dropped.short:
+            parts.append(f"{len(dropped.short)} shorter than min_contour_length {p.min_contour_length:g} px "
+                         f"(longest {max(dropped.short):.0f} px)")
+        if dropped.long:
+            parts.append(f"{len(dropped.long)} longer than max_contour_length {p.max_contour_length:g} px "
+                         f"(shortest {min(dropped.long):.0f} px)")
+        if dropped.border:
+            parts.append(f"{dropped.border} touching the image border (border_blobs is off)")
+        if dropped.large:
+            parts.append(f"{len(dropped.large)} covering more than max_area_fraction {p.max_area_fraction:g} of "
+                         f"the image (smallest {min(dropped.large):.0%})")
+        plural = "" if blobs == 1 else "s"
+        return f"{blobs} blob{plural}, none kept: " + ", ".join(parts)

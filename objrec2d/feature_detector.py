@@ -28,11 +28,13 @@ from .features.geometry import (
     check_quadrilateral,
     estimate_homography,
     inlier_coverage,
+    inside_convex,
+    overlap,
     project,
     unavailable_homography_methods,
 )
-from .features.matching import MATCHERS, TrainedMatcher
-from .features.result import DetectionStatus, FeatureMatch
+from .features.matching import MATCHERS, Matches, TrainedMatcher
+from .features.result import DetectionStatus, FeatureMatch, Instance
 from .features.target import (
     Target,
     TargetError,
@@ -56,6 +58,11 @@ from .messages import DetectedObject2D, Polygon
 log = logging.getLogger(__name__)
 
 DEBUG_VIEWS = ("side_by_side", "keypoints")
+
+#: What ``ready`` and ``last_reason`` say while no target is selected.
+NO_TARGET = "no target: select one in objrec-define (drag a rectangle around the object)"
+#: Attempts per frame beyond ``max_instances``: a copy found again (a duplicate) costs one and is not reported.
+EXTRA_ATTEMPTS = 2
 
 
 @dataclass(frozen=True)
@@ -132,6 +139,18 @@ class FeatureDetector(ImageDetector):
         soft_max=10.0, step=0.5,
         relevant={"homography_method": tuple(m for m in HOMOGRAPHY_METHODS if m != "LMEDS")},
     )
+    homography_max_iterations = Int(
+        20000,
+        "Most samples the estimator draws (findHomography's maxIters); it stops sooner once confident, so more "
+        "cost time only where inliers are few or absent. At 10 % inliers 2,000 find the model about half the "
+        "time, 20,000 almost always (MAGSAC: at most 5 ms when nothing fits; RANSAC's samples cost 50x more)",
+        min=10, max=1_000_000, soft_max=100_000,
+        relevant={"homography_method": tuple(m for m in HOMOGRAPHY_METHODS if m != "LMEDS")},
+    )
+    homography_confidence = Float(
+        0.999, "Confidence at which the estimator stops sampling (findHomography's confidence)",
+        min=0.5, max=0.999999, step=0.001,
+    )
     min_inliers = Int(10, "Fewest homography inliers for a detection", min=4, max=10000, soft_max=200)
     min_inlier_coverage = Float(
         0.1, "Share of the selection the inliers must span; bunched or collinear inliers extrapolate badly",
@@ -146,6 +165,17 @@ class FeatureDetector(ImageDetector):
     )
     min_corner_angle = Float(
         15.0, "Smallest corner angle of the found outline in degrees; flatter means squashed", min=0.0, max=89.0
+    )
+    # -- several copies of the target ------------------------------------------------------------------
+    max_instances = Int(
+        1,
+        "Most copies of the target reported per frame; after each copy its matches and the keypoints inside "
+        "its outline are set aside and the search repeats, with the same checks",
+        min=1, max=100, soft_max=20,
+    )
+    max_instance_overlap = Float(
+        0.5, "Overlap (intersection over union) above which a further outline is the same copy found again",
+        min=0.0, max=1.0, step=0.05, relevant=lambda values: values.get("max_instances", 1) > 1,
     )
     # -- display ---------------------------------------------------------------------------------------
     debug_view = Choice(
@@ -229,11 +259,11 @@ class FeatureDetector(ImageDetector):
         ):
             return model
         if model is None:
-            return "no target selected"
+            return NO_TARGET
         with self._model_lock:
             model = self._model
             if model is None:
-                return "no target selected"
+                return NO_TARGET
             target = model.target
             if target.config != config:
                 if self._failed is not None and self._failed[0] == config:
@@ -265,6 +295,12 @@ class FeatureDetector(ImageDetector):
         return cached[1]
 
     def detect(self, frame: np.ndarray) -> list[DetectedObject2D]:
+        """Every copy of the target in the frame, up to ``max_instances``, the best supported first.
+
+        After each copy its inlier matches and the frame keypoints inside its outline are set aside and the
+        remaining keypoints matched again (one-to-one, so copies do not compete for target keypoints); an
+        outline overlapping one already found by more than ``max_instance_overlap`` is the same copy again
+        and is not reported."""
         _check_image(frame)
         p = self.params
         config = FeatureConfig.from_parameters(p)
@@ -273,46 +309,96 @@ class FeatureDetector(ImageDetector):
             return self._finish(FeatureMatch(DetectionStatus.NO_TARGET, model, frame.shape), None)
         target = model.target
         if model.matcher is None:
-            reason = f"the target has no {config.type} keypoints with these settings"
+            reason = f"the target has no {config.type} keypoints with these settings; select a textured area"
             return self._finish(FeatureMatch(DetectionStatus.NO_TARGET, reason, frame.shape), target)
         keypoints, descriptors = compute_features(self._frame_extractor(config), as_gray(frame))
         frame_points = cv2.KeyPoint_convert(keypoints).reshape(-1, 2) if keypoints else np.empty((0, 2), np.float32)
-        matches = model.matcher.match(descriptors, p.ratio if p.ratio_test else None, p.cross_check)
-        found = FeatureMatch(DetectionStatus.TOO_FEW_MATCHES, None, frame.shape, frame_points, matches)
+        if len(keypoints) < p.min_matches:
+            reason = (
+                f"too few keypoints in the frame: {len(keypoints)} {config.type} keypoints, min_matches is "
+                f"{p.min_matches} (a plain, dark or blurred frame?)"
+            )
+            found = FeatureMatch(DetectionStatus.TOO_FEW_KEYPOINTS, reason, frame.shape, frame_points)
+            return self._finish(found, target)
+        candidates = model.matcher.candidates(descriptors, p.ratio if p.ratio_test else None)
+        available = np.ones(len(keypoints), dtype=bool)
+        instances: list[Instance] = []
+        failed: FeatureMatch | None = None
+        for _ in range(p.max_instances + EXTRA_ATTEMPTS):
+            if len(instances) >= p.max_instances:
+                break
+            matches = model.matcher.select(candidates, descriptors, p.cross_check, available if instances else None)
+            attempt = self._attempt(target, frame_points, matches, frame.shape, int(available.sum()))
+            if not isinstance(attempt, Instance):
+                failed = attempt
+                break
+            available[matches.frame_idx[attempt.inliers]] = False
+            available &= ~inside_convex(frame_points, attempt.quadrilateral)
+            same = [overlap(attempt.quadrilateral, other.quadrilateral) for other in instances]
+            if same and max(same) > p.max_instance_overlap:
+                log.debug("%s: a copy overlapping one already found by %.0f %% set aside", self.label, max(same) * 100)
+                continue
+            instances.append(attempt)
+        if not instances:
+            assert failed is not None  # the first attempt either found a copy or failed
+            return self._finish(failed, target)
+        instances.sort(key=lambda instance: -instance.inlier_count)  # best supported first
+        first = instances[0]
+        next_reason = None
+        if len(instances) < p.max_instances:
+            next_reason = failed.reason if failed is not None else "further attempts found only copies already reported"
+        found = FeatureMatch(
+            DetectionStatus.FOUND, None, frame.shape, frame_points, first.matches, first.inliers, first.homography,
+            first.quadrilateral, first.coverage, tuple(instances), next_reason,
+        )
+        self._finish(found, target)
+        return [DetectedObject2D(self.object_name, Polygon.from_xy(i.quadrilateral.tolist())) for i in instances]
+
+    def _attempt(
+        self, target: Target, frame_points: np.ndarray, matches: Matches, frame_shape: tuple[int, ...], keypoints: int
+    ) -> Instance | FeatureMatch:
+        """One copy of the target from these matches, or the failed attempt with the reason: every check a
+        copy must pass, in order. ``keypoints`` is how many frame keypoints were still available."""
+        p = self.params
+        found = FeatureMatch(DetectionStatus.TOO_FEW_MATCHES, None, frame_shape, frame_points, matches)
         if len(matches) < p.min_matches:
-            reason = f"too few matches: {len(matches)} of {len(keypoints)} keypoints, min_matches is {p.min_matches}"
-            return self._finish(_with(found, reason=reason), target)
+            reason = f"too few matches: {len(matches)} of {keypoints} keypoints, min_matches is {p.min_matches}"
+            return _with(found, reason=reason)
         homography, inliers = estimate_homography(
             target.points[matches.target_idx],
             frame_points[matches.frame_idx],
             p.homography_method,
             p.reprojection_threshold,
+            p.homography_max_iterations,
+            p.homography_confidence,
         )
         found = _with(found, inliers=inliers, homography=homography)
         if homography is None:
-            reason = f"no homography fits the {len(matches)} matches"
-            return self._finish(_with(found, status=DetectionStatus.NO_HOMOGRAPHY, reason=reason), target)
-        if inliers.sum() < p.min_inliers:
-            count = int(inliers.sum())
+            reason = (
+                f"no homography fits the {len(matches)} matches "
+                f"({p.homography_method}, homography_max_iterations is {p.homography_max_iterations})"
+            )
+            return _with(found, status=DetectionStatus.NO_HOMOGRAPHY, reason=reason)
+        count = int(inliers.sum())
+        if count < p.min_inliers:
             reason = f"too few inliers: {count} of {len(matches)} matches, min_inliers is {p.min_inliers}"
-            return self._finish(_with(found, status=DetectionStatus.TOO_FEW_INLIERS, reason=reason), target)
+            return _with(found, status=DetectionStatus.TOO_FEW_INLIERS, reason=reason)
         roi = target.roi
         coverage = inlier_coverage(target.points[matches.target_idx[inliers]], roi.width * roi.height)
+        found = _with(found, coverage=coverage)
         if coverage < p.min_inlier_coverage:
             reason = (
                 f"inliers bunched: they span {coverage:.0%} of the target, "
                 f"min_inlier_coverage is {p.min_inlier_coverage:.0%}"
             )
-            return self._finish(_with(found, status=DetectionStatus.BUNCHED_INLIERS, reason=reason), target)
+            return _with(found, status=DetectionStatus.BUNCHED_INLIERS, reason=reason)
         quadrilateral, w = project(homography, target.corners())
         limits = PolygonLimits(p.min_area, p.max_area_fraction, p.min_corner_angle)
-        problem = check_quadrilateral(quadrilateral, w, frame.shape, limits)
-        found = _with(found, quadrilateral=quadrilateral)
+        problem = check_quadrilateral(quadrilateral, w, frame_shape, limits)
         if problem is not None:
             reason = f"degenerate polygon: {problem}"
-            return self._finish(_with(found, status=DetectionStatus.DEGENERATE_POLYGON, reason=reason), target)
-        self._finish(_with(found, status=DetectionStatus.FOUND), target)
-        return [DetectedObject2D(self.object_name, Polygon.from_xy(quadrilateral.tolist()))]
+            return _with(found, status=DetectionStatus.DEGENERATE_POLYGON, reason=reason, quadrilateral=quadrilateral)
+        return Instance(matches, inliers, homography, quadrilateral, coverage)
 
     def _finish(self, result: FeatureMatch, target: Target | None) -> list[DetectedObject2D]:
         previous = self._last
@@ -337,6 +423,21 @@ class FeatureDetector(ImageDetector):
     def last_status(self) -> DetectionStatus | None:
         last = self._last
         return last[0].status if last is not None else None
+
+    def ready(self) -> str | None:
+        """None when a target is selected that can be found with the current settings; else why not."""
+        p = self.params
+        model = self._model_for(FeatureConfig.from_parameters(p), p.matcher)
+        if isinstance(model, str):
+            return model
+        needed = max(p.min_matches, p.min_inliers)
+        if len(model.target) < needed:
+            what = "no" if len(model.target) == 0 else f"only {len(model.target)}"
+            return (
+                f"the target has {what} {p.feature_type} keypoints with these settings, {needed} are needed "
+                "(min_matches/min_inliers): select a textured area"
+            )
+        return None
 
     # -- views -----------------------------------------------------------------------------------------
     def render_debug(self, frame: np.ndarray, objects: list[Any]) -> np.ndarray | None:

@@ -19,6 +19,7 @@ from .pcd import CloudFileError, read_pcd, write_pcd
 from .plane_removal_filter import PlaneRemovalFilter
 from .shape_detector import ShapeDetector
 from .sources import DemoSource, FileSource, RealSenseSource, RGBDSource, open_source, read_cloud, read_ply
+from .tracking import IdentityTracker
 from .voxel_filter import VoxelFilter
 
 __all__ = [
@@ -32,6 +33,7 @@ __all__ = [
     "DetectedObject3DArray",
     "DistanceFilter",
     "FileSource",
+    "IdentityTracker",
     "OrientedBox",
     "PlaneFit",
     "PlaneRemovalFilter",

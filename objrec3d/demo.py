@@ -202,6 +202,26 @@ def render_scene(options: SceneOptions, rng: np.random.Generator) -> tuple[Point
     t = depths[nearest, np.arange(d.shape[0])]
     colors = np.array([s[1] for s in surfaces], dtype=np.float64)[nearest]
 
+    cloud = _sense(o, d, t, rot, colors, options.noise, options.dropout, rng)
+
+    truth = DemoTruth()
+    truth.table_normal = rot @ np.array([0.0, 0.0, 1.0])
+    truth.table_offset = float(-truth.table_normal @ (rot @ (np.zeros(3) - eye)))
+    for shape, center, r, axis, h in shapes_world:
+        c_cam = rot @ (center - eye)
+        a_cam = None
+        if axis is not None:
+            a_cam = rot @ axis
+            if a_cam @ (-c_cam) < 0:  # the detector's convention: toward the sensor
+                a_cam = -a_cam
+        truth.shapes.append(TruthShape(shape, c_cam, r, a_cam, h))
+    return cloud, truth
+
+
+def _sense(o: np.ndarray, d: np.ndarray, t: np.ndarray, rot: np.ndarray, colors: np.ndarray, noise: float,
+           dropout: float, rng: np.random.Generator) -> PointCloud:
+    """What the depth camera returns for ray hits at depth ``t``: shading, depth noise growing with the square
+    of the depth, returns missing at random, at grazing angles and in blobs."""
     # Incidence: estimate the surface normal from the depth image to drop grazing returns.
     hit_world = o + t[:, None] * d
     grid = np.where(np.isfinite(t), 1.0, np.nan)[:, None] * (hit_world - o) @ rot.T  # camera frame
@@ -219,10 +239,10 @@ def render_scene(options: SceneOptions, rng: np.random.Generator) -> tuple[Point
     colors = np.clip(colors * shade[:, None] + rng.normal(0, 4, colors.shape), 0, 255)
 
     depth = grid[:, 2]
-    sigma = options.noise * (0.0012 + 0.0019 * (depth - 0.4) ** 2)
+    sigma = noise * (0.0012 + 0.0019 * (depth - 0.4) ** 2)
     factor = 1.0 + rng.normal(0.0, 1.0, depth.shape) * sigma / np.where(depth > 0, depth, 1.0)
     points = grid * factor[:, None]
-    missing = ~np.isfinite(depth) | (rng.random(depth.shape) < options.dropout)
+    missing = ~np.isfinite(depth) | (rng.random(depth.shape) < dropout)
     missing |= np.nan_to_num(incidence, nan=0.0) < 0.12  # grazing angles return nothing
     # Blobs of missing returns (specular spots, absorbing patches).
     blob_mask = np.zeros((HEIGHT, WIDTH), dtype=bool)
@@ -234,18 +254,7 @@ def render_scene(options: SceneOptions, rng: np.random.Generator) -> tuple[Point
     points[missing] = np.nan
     cloud = PointCloud(points.astype(np.float32), colors.astype(np.uint8), WIDTH, HEIGHT)
 
-    truth = DemoTruth()
-    truth.table_normal = rot @ np.array([0.0, 0.0, 1.0])
-    truth.table_offset = float(-truth.table_normal @ (rot @ (np.zeros(3) - eye)))
-    for shape, center, r, axis, h in shapes_world:
-        c_cam = rot @ (center - eye)
-        a_cam = None
-        if axis is not None:
-            a_cam = rot @ axis
-            if a_cam @ (-c_cam) < 0:  # the detector's convention: toward the sensor
-                a_cam = -a_cam
-        truth.shapes.append(TruthShape(shape, c_cam, r, a_cam, h))
-    return cloud, truth
+    return cloud
 
 
 def random_options(rng: np.random.Generator, *, hard: bool = True) -> SceneOptions:
@@ -276,3 +285,58 @@ def demo_scene(seed: int = 0, frame: int = 0) -> tuple[PointCloud, DemoTruth]:
     swing = 0.05 * math.sin(frame * 0.2)
     options.sphere_position = (x + swing, y)
     return render_scene(options, np.random.default_rng([seed, frame]))
+
+
+def shape_scene(rng: np.random.Generator, distance: float, *, cylinders: int = 2, spheres: int = 1,
+                radii: tuple[float, float] = (0.012, 0.08), noise: float = 1.0) -> tuple[PointCloud, DemoTruth,
+                                                                                      np.ndarray]:
+    """A table seen from ``distance`` metres (to the middle of the objects, 35 degrees from above) with
+    upright cylinders and spheres of random radii side by side on it, for accuracy tests at any range.
+
+    Returns the cloud, the truth and, per point, the index of the truth shape it shows (-1: table or nothing),
+    so a test can count each object's visible points after any filter. Nothing lies beyond the table.
+    """
+    pitch = math.radians(35.0)
+    options = SceneOptions(camera_height=distance * math.sin(pitch), camera_distance=distance * math.cos(pitch),
+                           noise=noise, dropout=0.02)
+    rot, eye = _camera_pose(options)
+    d = _rays() @ rot
+    t_table = _hit_plane(eye, d, np.zeros(3), np.array([0.0, 0.0, 1.0]))
+    hit = eye + t_table[:, None] * d
+    t_table[(np.abs(hit[:, 0]) > 0.8) | (np.abs(hit[:, 1]) > 0.6)] = np.inf  # a 1.6 x 1.2 m table, no wall
+    surfaces = [(t_table, (150, 120, 90))]
+    kinds = ["cylinder"] * cylinders + ["sphere"] * spheres
+    order = rng.permutation(len(kinds))
+    spread = min(0.12 * distance, 0.25)  # side by side across the view, a little apart in depth
+    shapes_world = []
+    x = -0.5 * spread * (len(kinds) - 1)
+    for k in order:
+        r = float(rng.uniform(*radii))
+        center_xy = (x + rng.uniform(-0.02, 0.02), rng.uniform(-0.05, 0.05))
+        x += spread
+        if kinds[k] == "cylinder":
+            h = float(rng.uniform(2.0, 4.0) * r + 0.03)
+            center = np.array([*center_xy, 0.5 * h])
+            axis = np.array([0.0, 0.0, 1.0])
+            surfaces.append((_hit_cylinder(eye, d, center, axis, r, h), (200, 40, 40)))
+            shapes_world.append(("cylinder", center, r, axis, h))
+        else:
+            center = np.array([*center_xy, r])
+            surfaces.append((_hit_sphere(eye, d, center, r), (40, 60, 200)))
+            shapes_world.append(("sphere", center, r, None, 2 * r))
+    depths = np.stack([s[0] for s in surfaces])
+    nearest = np.argmin(depths, axis=0)
+    t = depths[nearest, np.arange(d.shape[0])]
+    colors = np.array([s[1] for s in surfaces], dtype=np.float64)[nearest]
+    cloud = _sense(eye, d, t, rot, colors, noise, 0.02, rng)
+    labels = np.where(np.isfinite(t), nearest - 1, -1)
+    truth = DemoTruth()
+    truth.table_normal = rot @ np.array([0.0, 0.0, 1.0])
+    truth.table_offset = float(-truth.table_normal @ (rot @ (np.zeros(3) - eye)))
+    for shape, center, r, axis, h in shapes_world:
+        c_cam = rot @ (center - eye)
+        a_cam = None if axis is None else rot @ axis
+        if a_cam is not None and a_cam @ (-c_cam) < 0:
+            a_cam = -a_cam
+        truth.shapes.append(TruthShape(shape, c_cam, r, a_cam, h))
+    return cloud, truth, labels

@@ -1,8 +1,8 @@
 """3D detected-object messages, field for field as the ROS ``object_detection_3d_msgs`` (listing 5.2).
 
 A ``DetectedObject3D`` has a ``name`` and a ``box`` (``OrientedBox``: ``pose`` with ``position`` and
-``orientation``, then ``width``, ``height``, ``depth``). ``shape``, ``radius`` and ``inliers`` are extra
-fields a ROS consumer may ignore.
+``orientation``, then ``width``, ``height``, ``depth``). ``shape``, ``radius``, ``inliers`` and ``id`` are
+extra fields a ROS consumer may ignore.
 
 Box frame: the box's local x axis spans ``width``, y spans ``height``, z spans ``depth``; ``orientation``
 rotates those local axes into the sensor frame. For a cylinder the local y axis is the cylinder axis.
@@ -105,7 +105,9 @@ class DetectedObject3D:
     """One object found in a point cloud: its name and oriented box, plus what the shape fit found.
 
     ``shape`` is "sphere" or "cylinder" (empty for other detectors), ``radius`` in metres and ``inliers``
-    the number of points that support the fit.
+    the number of points that support the fit. ``id`` names the object across the frames of a stream: an
+    object that stays keeps it (see ``objrec3d.tracking``); empty when nothing tracks the objects. Like
+    ``vision_msgs/Detection3D.id`` it is a string, so a consumer compares it and never computes with it.
     """
 
     name: str
@@ -113,6 +115,7 @@ class DetectedObject3D:
     shape: str = ""
     radius: float = 0.0
     inliers: int = 0
+    id: str = ""
 
     @property
     def center(self) -> np.ndarray:
@@ -127,6 +130,7 @@ class DetectedObject3D:
         p, q = self.box.pose.position, self.box.pose.orientation
         data: dict[str, Any] = {
             "name": self.name,
+            "id": self.id,
             "box": {
                 "pose": {
                     "position": {"x": p.x, "y": p.y, "z": p.z},
@@ -161,6 +165,7 @@ class DetectedObject3D:
             shape=str(data.get("shape", "")),
             radius=float(data.get("radius", 0.0)),
             inliers=int(data.get("inliers", 0)),
+            id=str(data.get("id", "")),
         )
 
 
@@ -171,7 +176,8 @@ class DetectedObject3DArray(DetectedObjectArray):
     ``ros_type`` and ``ros_definitions`` (ROS ``.msg`` text per type) let a kind-agnostic writer publish
     these arrays as typed ROS messages: the definitions are embedded in the bags and MCAP files it writes.
     A ROS message has no optional fields: an object without a shape fit carries ``shape: ""``,
-    ``radius: 0.0`` and ``inliers: 0`` there, where its JSON line leaves them out.
+    ``radius: 0.0`` and ``inliers: 0`` there, where its JSON line leaves them out. ``id`` is in both always
+    (empty when untracked), so JSON and typed messages list the same identities.
     """
 
     object_type = DetectedObject3D
@@ -179,7 +185,7 @@ class DetectedObject3DArray(DetectedObjectArray):
     ros_definitions: ClassVar[dict[str, str]] = {
         "object_detection_3d_msgs/msg/DetectedObject3DArray": "std_msgs/Header header\nDetectedObject3D[] objects\n",
         "object_detection_3d_msgs/msg/DetectedObject3D": (
-            "string name\nOrientedBox box\nstring shape\nfloat64 radius\nuint32 inliers\n"
+            "string name\nOrientedBox box\nstring shape\nfloat64 radius\nuint32 inliers\nstring id\n"
         ),
         "object_detection_3d_msgs/msg/OrientedBox": (
             "geometry_msgs/Pose pose\nfloat64 width\nfloat64 height\nfloat64 depth\n"

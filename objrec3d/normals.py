@@ -2,8 +2,10 @@
 
 An organized cloud gets its normals from the image grid: points are box-averaged with integral images
 (PCL's AVERAGE_3D_GRADIENT idea) and the normal is the cross product of the horizontal and vertical
-gradients of those means, a few additions per point. An unorganized cloud needs a neighbour search: k
-nearest neighbours (SciPy's k-d tree) and the smallest eigenvector of their covariance.
+gradients of those means, a few additions per point. An unorganized cloud needs a neighbour search: the
+smallest eigenvector of the covariance of nearby points (SciPy's k-d tree). How near is chosen from the data
+(``neighbourhood_radius``): a fixed k spans a few millimetres in a dense cloud close to the sensor, where the
+depth noise is as large as that, and the normals are noise.
 
 Normals are unit float32 vectors oriented toward the sensor (``n . (origin - p) >= 0``); a point whose
 normal cannot be estimated (too few neighbours, a depth jump) gets NaN.
@@ -16,12 +18,13 @@ import numpy as np
 from .cloud import PointCloud
 
 
-def estimate_normals(cloud: PointCloud, indices: np.ndarray, *, window: int = 3, knn: int = 30) -> np.ndarray:
+def estimate_normals(cloud: PointCloud, indices: np.ndarray, *, window: int = 3, knn: int = 30,
+                     radius: float = 0.0) -> np.ndarray:
     """Normals at ``cloud.points[indices]`` (valid points only): the image grid when the cloud is organized,
-    k nearest neighbours among the given points otherwise."""
+    a neighbourhood chosen from the data among the given points otherwise (``adaptive_normals``)."""
     if cloud.is_organized:
         return grid_normals(cloud, indices, window=window)
-    return knn_normals(cloud.points[indices], knn, cloud.sensor_origin)
+    return adaptive_normals(cloud.points[indices], knn, cloud.sensor_origin, radius)
 
 
 def grid_normals(cloud: PointCloud, indices: np.ndarray, *, window: int = 3, max_slant: float = 0.12) -> np.ndarray:
@@ -82,25 +85,78 @@ def grid_normals(cloud: PointCloud, indices: np.ndarray, *, window: int = 3, max
     return out
 
 
-def knn_normals(points: np.ndarray, k: int = 30, origin: np.ndarray | None = None) -> np.ndarray:
-    """Normals of unorganized points from their ``k`` nearest neighbours (PCA), oriented to ``origin``."""
+def knn_normals(points: np.ndarray, k: int = 30, origin: np.ndarray | None = None, *,
+                at: np.ndarray | None = None) -> np.ndarray:
+    """Normals from the ``k`` nearest of ``points`` (PCA), oriented to ``origin``: at the points themselves, or
+    at ``at`` (other points on the same surface)."""
+    from scipy.spatial import cKDTree
+
+    points = np.asarray(points, dtype=np.float64)
+    targets = points if at is None else np.asarray(at, dtype=np.float64)
+    out = np.full((targets.shape[0], 3), np.nan, dtype=np.float32)
+    k = min(int(k), points.shape[0])
+    if points.shape[0] < 3 or k < 3:
+        return out
+    tree = cKDTree(points)
+    for start in range(0, targets.shape[0], 20_000):  # bounded memory: n x k x 3 per chunk
+        chunk = targets[start : start + 20_000]
+        _, neighbours = tree.query(chunk, k=k, workers=-1)
+        local = points[neighbours]  # n x k x 3
+        local -= local.mean(axis=1, keepdims=True)
+        _, vectors = np.linalg.eigh(np.einsum("nki,nkj->nij", local, local))
+        normals = vectors[:, :, 0]
+        _orient(normals, chunk, np.zeros(3) if origin is None else origin)
+        out[start : start + chunk.shape[0]] = normals
+    return out
+
+
+def neighbourhood_radius(points: np.ndarray, k: int = 30, sample: int = 2000,
+                         rng: np.random.Generator | None = None) -> float:
+    """A normal's neighbourhood radius from the data: wide enough to hold about ``k`` points at the cloud's
+    median spacing (nearest-neighbour distance), and at least eight times the median noise across the
+    surface (the square root of the smallest covariance eigenvalue of ``k`` neighbours), so that noise tilts a
+    normal by a few degrees at most. Measured on ``sample`` points, so it costs a few milliseconds."""
     from scipy.spatial import cKDTree
 
     points = np.asarray(points, dtype=np.float64)
     n = points.shape[0]
-    out = np.full((n, 3), np.nan, dtype=np.float32)
-    k = min(int(k), n)
-    if n < 3 or k < 3:
-        return out
-    _, neighbours = cKDTree(points).query(points, k=k, workers=-1)
-    local = points[neighbours]  # n x k x 3
+    if n < 4:
+        return 0.0
+    rng = rng if rng is not None else np.random.default_rng(0)
+    probe = points[rng.choice(n, size=sample, replace=False)] if n > sample else points
+    k = max(3, min(int(k), n))
+    distances, neighbours = cKDTree(points).query(probe, k=k)
+    spacing = float(np.median(distances[:, 1]))
+    local = points[neighbours]
     local -= local.mean(axis=1, keepdims=True)
-    covariance = np.einsum("nki,nkj->nij", local, local)
-    _, vectors = np.linalg.eigh(covariance)
-    normals = vectors[:, :, 0]
-    _orient(normals, points, np.zeros(3) if origin is None else origin)
-    out[:] = normals
-    return out
+    values = np.linalg.eigvalsh(np.einsum("nki,nkj->nij", local, local) / k)
+    noise = float(np.median(np.sqrt(np.maximum(values[:, 0], 0.0))))
+    return max(spacing * np.sqrt(k / np.pi), 8.0 * noise)
+
+
+def adaptive_normals(points: np.ndarray, k: int = 30, origin: np.ndarray | None = None, radius: float = 0.0
+                     ) -> np.ndarray:
+    """Normals of unorganized points over a neighbourhood of ``radius`` (0: ``neighbourhood_radius``).
+
+    The points are first averaged in cubic cells of side radius / sqrt(k / pi), so about ``k`` cell means lie
+    within ``radius`` of any point however dense the cloud; each normal is the PCA of the ``k`` cell means
+    nearest to its point (a sparse cloud, where cells hold one point, gets plain k nearest neighbours).
+    """
+    points = np.asarray(points, dtype=np.float64)
+    if points.shape[0] < 3:
+        return np.full((points.shape[0], 3), np.nan, dtype=np.float32)
+    radius = radius if radius > 0 else neighbourhood_radius(points, k)
+    cell = radius / np.sqrt(max(k, 3) / np.pi)
+    if cell <= 0:
+        return knn_normals(points, k, origin)
+    keys = np.floor((points - points.min(axis=0)) / cell).astype(np.int64)
+    span = keys.max(axis=0) + 1
+    flat = (keys[:, 0] * span[1] + keys[:, 1]) * span[2] + keys[:, 2]
+    _, group = np.unique(flat, return_inverse=True)
+    group = group.reshape(-1)
+    sizes = np.bincount(group).astype(np.float64)
+    means = np.stack([np.bincount(group, points[:, i]) for i in range(3)], axis=1) / sizes[:, None]
+    return knn_normals(means, k, origin, at=points)
 
 
 def _orient(normals: np.ndarray, points: np.ndarray, origin: np.ndarray) -> None:

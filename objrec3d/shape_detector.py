@@ -1,16 +1,20 @@
-"""ShapeDetector: spheres or cylinders by RANSAC on points with normals, reported as oriented boxes.
+"""ShapeDetector: cylinders, spheres and planes by RANSAC on points with normals, reported as oriented boxes.
 
 PCL's SACSegmentationFromNormals always returns its best model, however bad, and needs a slow
 k-nearest-neighbour normal estimation first. Here normals come from the image grid when the cloud is
-organized, hypotheses from two points with normals are rejected before scoring when their radius
-is out of range, and a fit becomes an object only when it is strong: enough inliers in one connected
-piece, covering enough of the shape's visible side (``min_arc``). A scene without the shape gives nothing.
+organized (from a neighbourhood sized by the data otherwise), hypotheses from two points with normals are
+rejected before scoring when their radius is out of range, and a fit becomes an object only when it is
+strong: enough inliers in one connected piece, covering enough of the shape's visible side (``min_arc``).
+A scene without the shape gives nothing. One detector may look for several shapes at once (``shape`` =
+``cylinder+sphere+plane``): every round, each shape is searched among the points not yet taken, and the
+strongest acceptable fits become objects, each reporting its own shape.
 """
 
 from __future__ import annotations
 
 import logging
 import math
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -19,18 +23,36 @@ from objrec_core import Choice, Float, Int, Ordered
 
 from .base import CloudDetector
 from .cloud import PointCloud, as_cloud
-from .fitting import ShapeFit, ShapeSettings, ransac_shape
+from .fitting import ShapeFit, ShapeSettings, fit_plane, ransac_shape
 from .messages import DetectedObject3D, OrientedBox, Point, Pose, Quaternion
-from .normals import grid_normals, knn_normals
+from .normals import adaptive_normals, grid_normals
+from .tracking import IdentityTracker
 from .vec import dot3
 
 log = logging.getLogger(__name__)
 
+#: The shapes one detector can look for, alone or together (joined by "+", always in this order).
+SHAPES = ("cylinder", "sphere", "plane")
+SHAPE_CHOICES = ("cylinder", "sphere", "plane", "cylinder+sphere", "cylinder+plane", "sphere+plane",
+                 "cylinder+sphere+plane")
+
+
+@dataclass
+class Found:
+    """One accepted fit: the fit (a plane's ``center`` is its box centre, ``axis`` its normal, ``radius`` 0)
+    and its oriented box (rotation columns: the box's local x, y, z in the sensor frame; sizes along them)."""
+
+    fit: ShapeFit
+    center: np.ndarray
+    rotation: np.ndarray
+    size: tuple[float, float, float]
+
 
 class ShapeDetector(CloudDetector):
-    """Finds up to ``max_objects`` spheres or cylinders: fit, remove the inliers, fit again."""
+    """Finds up to ``max_objects`` cylinders, spheres or planes: fit, remove the inliers, fit again."""
 
-    shape = Choice("cylinder", ["sphere", "cylinder"], "the shape to find")
+    shape = Choice("cylinder", SHAPE_CHOICES, "the shapes to find, several joined by '+' (one pass finds them "
+                   "all; each object reports its own shape); a plane is reported as the box of its inliers")
     # Things a robot picks up are a few centimetres across: the sliders stop at half a metre, typed values
     # reach 5 m. Both share the range so that the two sliders line up.
     min_radius = Float(0.01, "smallest radius reported, metres", min=0.0, max=5.0, soft_max=0.5, step=0.001)
@@ -38,14 +60,16 @@ class ShapeDetector(CloudDetector):
                        soft_max=0.5, step=0.001)
     radius_order = Ordered("min_radius", "max_radius", why="no radius could be reported")
     distance_threshold = Float(0.01, "a point is an inlier when w*angle + (1-w)*distance is below this (PCL's "
-                               "threshold)", min=0.0005, max=0.5, step=0.0005)
+                               "threshold); planes: the distance alone", min=0.0005, max=0.5, step=0.0005)
     normal_distance_weight = Float(0.05, "w: how much the normal's angle (radians) counts against the "
                                    "distance (metres)", min=0.0, max=1.0, step=0.01)
     max_iterations = Int(1000, "hypotheses tried at most per object", min=1, max=100_000, soft_max=10_000, step=1)
     probability = Float(0.99, "adaptive stopping: stop once a better model is this unlikely", min=0.5, max=0.99999,
                         step=0.001)
-    min_inliers = Int(300, "a fit with fewer inliers (in its largest connected piece) is no object", min=3,
-                      max=10_000_000, soft_max=5000)
+    min_inliers = Int(100, "a fit with fewer inliers (in its largest connected piece) is no object. Counted "
+                      "after every filter: a 5 mm voxel filter leaves a 2.4 cm ball at 1 m about 20 points, so "
+                      "keep this low (the shape checks below reject clutter) rather than raise it",
+                      min=3, max=10_000_000, soft_max=5000)
     min_arc = Float(60.0, "degrees the inliers must cover: of the circumference (cylinder), of the cap across its "
                     "narrower side (sphere); a sliver of a plane, an edge or a ring is no shape", min=0.0, max=360.0,
                     step=5.0)
@@ -54,50 +78,133 @@ class ShapeDetector(CloudDetector):
     min_agreement = Float(0.5, "share of the points on the fitted surface (within the threshold, facing out) whose "
                           "normals must agree with it: the rounded edge of a flat thing does not", min=0.0, max=1.0,
                           step=0.05)
+    plane_normal_angle = Float(20.0, "planes: a point is an inlier only if its normal is within this many degrees "
+                               "of the plane's (the side of a cylinder is no plane)", min=1.0, max=90.0, step=1.0,
+                               relevant=lambda v: "plane" in v["shape"])
     max_objects = Int(1, "objects per cloud at most", min=1, max=50)
     normal_window = Int(3, "organized clouds: half-size in pixels of the box that smooths the normals (its footprint "
                         "is twice that: keep it well under an object's radius in pixels)", min=1,
                         max=50)
-    normal_neighbours = Int(30, "unorganized clouds: neighbours per normal", min=3, max=200)
+    normal_neighbours = Int(30, "unorganized clouds: neighbours (cell means) per normal", min=3, max=200)
+    normal_radius = Float(0.0, "unorganized clouds: radius of a normal's neighbourhood, metres; 0 chooses it from "
+                          "the data (about normal_neighbours points at the median spacing, and at least eight times "
+                          "the noise)", min=0.0, max=1.0, soft_max=0.05, step=0.001)
     random_seed = Int(0, "seed of the random draws, reset for every cloud: the same cloud gives the same "
                       "objects", min=0, max=2**31 - 1)
 
+    def __init__(self, id: str | None = None, *, object_name: str | None = None, **parameters: Any) -> None:
+        self._last_reason: str | None = None
+        #: Gives each object an ``id`` that stays while the object does, frame after frame.
+        self.tracker = IdentityTracker()
+        super().__init__(id, object_name=object_name, **parameters)
+
+    @property
+    def last_reason(self) -> str | None:
+        """Why the last cloud gave no object: too few points, no hypothesis in the radius range, or the best
+        fit's failed check with its numbers."""
+        return self._last_reason
+
     def detect(self, frame: Any) -> list[DetectedObject3D]:
         cloud = as_cloud(frame)
-        return [self._to_object(fit, extent, cloud.sensor_origin) for fit, extent in self.find(cloud)]
+        return self.tracker.assign([self._to_object(found, cloud.sensor_origin) for found in self.find(cloud)])
 
     # -- the search ------------------------------------------------------------------------------------------
-    def find(self, cloud: PointCloud) -> list[tuple[ShapeFit, tuple[np.ndarray, float]]]:
-        """The accepted fits with their box centre and height (indices of ``inliers`` are into the valid
-        points that have normals, see ``points_with_normals``)."""
+    def find(self, cloud: PointCloud) -> list[Found]:
+        """The accepted fits (indices of ``fit.inliers`` are into the valid points that have normals, see
+        ``points_with_normals``). Sets ``last_reason`` when there are none."""
         p = self.params
+        shapes = p.shape.split("+")
         points, normals, _ = self.points_with_normals(cloud, p)
+        self._last_reason = None
         if points.shape[0] < p.min_inliers:
+            valid = cloud.count_valid()
+            self._last_reason = (f"too few points: {points.shape[0]} with normals (of {valid} valid) < min_inliers "
+                                 f"{p.min_inliers}")
             return []
         settings = ShapeSettings(
-            shape=p.shape, min_radius=p.min_radius, max_radius=p.max_radius,
+            shape="cylinder", min_radius=p.min_radius, max_radius=p.max_radius,
             threshold=p.distance_threshold, normal_weight=p.normal_distance_weight,
             max_iterations=p.max_iterations, probability=p.probability,
         )
         rng = np.random.default_rng(p.random_seed)
         alive = np.arange(points.shape[0])
-        found: list[tuple[ShapeFit, tuple[np.ndarray, float]]] = []
+        found: list[Found] = []
+        reasons: dict[str, str] = {}
         attempts = p.max_objects + 6  # a rejected fit's points are set aside and the search goes on
         while len(found) < p.max_objects and attempts > 0 and alive.size >= p.min_inliers:
             attempts -= 1
-            fit = ransac_shape(points[alive], normals[alive], settings, rng)
-            if fit is None:
-                break
-            fit.inliers = alive[fit.inliers]
-            verdict = self._judge(fit, points, normals, settings, p)
-            if verdict is None:
-                center, height = self._extent(fit, points)
-                found.append((fit, (center, height)))
-                log.debug("%s: %s r=%.4f with %d inliers", self.label, fit.shape, fit.radius, fit.inliers.size)
-            else:
-                log.debug("%s: rejected %s r=%.4f: %s", self.label, fit.shape, fit.radius, verdict)
-            alive = np.setdiff1d(alive, fit.inliers, assume_unique=True)
+            accepted: list[Found] = []
+            rejected: list[np.ndarray] = []
+            for shape in shapes:
+                result, reason = self._search(shape, points, normals, alive, settings, rng, cloud.sensor_origin, p)
+                if isinstance(result, Found):
+                    accepted.append(result)
+                    log.debug("%s: %s r=%.4f with %d inliers", self.label, shape, result.fit.radius,
+                              result.fit.inliers.size)
+                else:
+                    reasons.setdefault(shape, reason)
+                    log.debug("%s: no %s: %s", self.label, shape, reason)
+                    if result is not None:
+                        rejected.append(result)
+            if not accepted:
+                if not rejected:
+                    break
+                alive = np.setdiff1d(alive, np.concatenate(rejected), assume_unique=False)
+                continue
+            # The strongest fit first; others of this round too when they share (almost) no points with it.
+            accepted.sort(key=lambda f: -f.fit.inliers.size)
+            taken = np.zeros(points.shape[0], dtype=bool)
+            for candidate in accepted:
+                if len(found) >= p.max_objects:
+                    break
+                if taken[candidate.fit.inliers].mean() > 0.1:
+                    continue
+                found.append(candidate)
+                taken[candidate.fit.inliers] = True
+            alive = alive[~taken[alive]]
+        if not found:
+            if alive.size < p.min_inliers and not reasons:
+                reasons["all"] = f"{alive.size} points left < min_inliers {p.min_inliers}"
+            self._last_reason = "; ".join(f"{k}: {v}" for k, v in reasons.items()) or "no fit"
         return found
+
+    def _search(self, shape: str, points: np.ndarray, normals: np.ndarray, alive: np.ndarray,
+                settings: ShapeSettings, rng: np.random.Generator, sensor: np.ndarray, p: Any
+                ) -> tuple[Found | np.ndarray | None, str]:
+        """One shape's best fit among the ``alive`` points: the accepted Found, or (the rejected fit's inliers
+        or None, why not)."""
+        if shape == "plane":
+            return self._search_plane(points, normals, alive, settings, rng, sensor, p)
+        settings.shape = shape
+        fit = ransac_shape(points[alive], normals[alive], settings, rng)
+        if fit is None:
+            return None, (f"no hypothesis with a radius in {p.min_radius:g}-{p.max_radius:g} m among "
+                          f"{alive.size} points")
+        fit.inliers = alive[fit.inliers]
+        verdict = self._judge(fit, points, normals, settings, p)
+        if verdict is not None:
+            return fit.inliers, f"best fit r={fit.radius:.4f} m: {verdict}"
+        center, height = self._extent(fit, points)
+        diameter = 2.0 * fit.radius
+        rotation = np.eye(3) if fit.axis is None else box_rotation(fit.axis, center, sensor)
+        return Found(fit, center, rotation, (diameter, height if fit.axis is not None else diameter, diameter)), ""
+
+    def _search_plane(self, points: np.ndarray, normals: np.ndarray, alive: np.ndarray, settings: ShapeSettings,
+                      rng: np.random.Generator, sensor: np.ndarray, p: Any) -> tuple[Found | np.ndarray | None, str]:
+        plane = fit_plane(points[alive], p.distance_threshold, max_iterations=min(p.max_iterations, 1000),
+                          probability=p.probability, rng=rng, origin=sensor)
+        if plane is None:
+            return None, f"no plane among {alive.size} points"
+        facing = normals[alive] @ plane.normal >= math.cos(math.radians(p.plane_normal_angle))
+        inliers = alive[plane.inliers & facing]
+        if inliers.size < p.min_inliers:
+            return alive[plane.inliers], f"best plane {inliers.size} inliers < min_inliers {p.min_inliers}"
+        inliers = inliers[largest_cluster(points[inliers], max(3.0 * p.distance_threshold, 0.03))]
+        if inliers.size < p.min_inliers:
+            return alive[plane.inliers], f"best plane {inliers.size} connected inliers < min_inliers {p.min_inliers}"
+        center, rotation, size = plane_box(points[inliers], plane.normal)
+        fit = ShapeFit("plane", center, rotation[:, 2].copy(), 0.0, inliers, 0.0)
+        return Found(fit, center, rotation, size), ""
 
     def points_with_normals(self, cloud: PointCloud, p: Any = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The valid points that have a normal (float64), their normals, and their indices in the cloud."""
@@ -111,7 +218,7 @@ class ShapeDetector(CloudDetector):
             if np.isfinite(normals[:, 0]).mean() < 0.5:  # a sparse grid (voxel-thinned): use neighbours
                 normals = None
         if normals is None:
-            normals = knn_normals(cloud.points[index], p.normal_neighbours, cloud.sensor_origin)
+            normals = adaptive_normals(cloud.points[index], p.normal_neighbours, cloud.sensor_origin, p.normal_radius)
         ok = np.isfinite(normals[:, 0])
         return cloud.points[index[ok]].astype(np.float64), normals[ok].astype(np.float64), index[ok]
 
@@ -119,22 +226,22 @@ class ShapeDetector(CloudDetector):
                ) -> str | None:
         """None for a strong fit (keeping only its largest connected piece of inliers), else why not."""
         if fit.inliers.size < p.min_inliers:
-            return f"{fit.inliers.size} inliers < {p.min_inliers}"
+            return f"{fit.inliers.size} inliers < min_inliers {p.min_inliers}"
         cell = max(0.25 * fit.radius, 1.5 * settings.threshold, 0.004)
         fit.inliers = fit.inliers[largest_cluster(points[fit.inliers], cell)]
         if fit.inliers.size < p.min_inliers:
-            return f"{fit.inliers.size} connected inliers < {p.min_inliers}"
+            return f"{fit.inliers.size} connected inliers < min_inliers {p.min_inliers}"
         arc = coverage(fit, points[fit.inliers])
         if arc < p.min_arc:
-            return f"inliers cover {arc:.0f} degrees < {p.min_arc:g}"
+            return f"inliers cover {arc:.0f} degrees < min_arc {p.min_arc:g}"
         if fit.axis is not None:
             along = dot3(points[fit.inliers] - fit.center, fit.axis)
             length = float(along.max() - along.min())
             if length < p.min_length * fit.radius:
-                return f"inliers reach {length:.3f} m along the axis < {p.min_length:g} radii"
+                return f"inliers reach {length:.3f} m along the axis < min_length {p.min_length:g} radii"
         agreement = normal_agreement(fit, points, normals, settings.threshold)
         if agreement < p.min_agreement:
-            return f"normals agree on {agreement:.0%} of the surface < {p.min_agreement:.0%}"
+            return f"normals agree on {agreement:.0%} of the surface < min_agreement {p.min_agreement:.0%}"
         return None
 
     @staticmethod
@@ -145,15 +252,30 @@ class ShapeDetector(CloudDetector):
         # The box: centred on the inlier centroid projected onto the axis, as long as the inliers reach along it.
         return fit.center + fit.axis * along.mean(), float(along.max() - along.min())
 
-    def _to_object(self, fit: ShapeFit, extent: tuple[np.ndarray, float], sensor: np.ndarray) -> DetectedObject3D:
-        center, height = extent
-        diameter = 2.0 * fit.radius
-        if fit.axis is None:
-            orientation = Quaternion()
-        else:
-            orientation = Quaternion.from_matrix(box_rotation(fit.axis, center, sensor))
-        box = OrientedBox(Pose(Point(*(float(v) for v in center)), orientation), diameter, height, diameter)
+    def _to_object(self, found: Found, sensor: np.ndarray) -> DetectedObject3D:
+        fit = found.fit
+        orientation = Quaternion() if fit.shape == "sphere" else Quaternion.from_matrix(found.rotation)
+        box = OrientedBox(Pose(Point(*(float(v) for v in found.center)), orientation), *found.size)
         return DetectedObject3D(self.object_name, box, fit.shape, float(fit.radius), int(fit.inliers.size))
+
+
+def plane_box(points: np.ndarray, normal: np.ndarray) -> tuple[np.ndarray, np.ndarray, tuple[float, float, float]]:
+    """The oriented box of a plane's inliers: local z along the plane's normal (toward the sensor), local x
+    along the inliers' longer in-plane direction; centred on their extent, as large as it."""
+    z = np.asarray(normal, dtype=np.float64) / np.linalg.norm(normal)
+    centroid = points.mean(axis=0)
+    rel = points - centroid
+    rel_in = rel - dot3(rel, z)[:, None] * z
+    _, vectors = np.linalg.eigh(np.einsum("ni,nj->ij", rel_in, rel_in))
+    x = vectors[:, 2] - (vectors[:, 2] @ z) * z
+    x /= np.linalg.norm(x)
+    y = np.cross(z, x)
+    rotation = np.stack([x, y, z], axis=1)
+    local = rel @ rotation
+    low, high = local.min(axis=0), local.max(axis=0)
+    center = centroid + rotation @ (0.5 * (low + high))
+    size = high - low
+    return center, rotation, (float(size[0]), float(size[1]), float(size[2]))
 
 
 def box_rotation(axis: np.ndarray, center: np.ndarray, sensor: np.ndarray | None = None) -> np.ndarray:

@@ -34,6 +34,7 @@ from types import FrameType
 from typing import IO, Any, NoReturn
 
 from objrec_core import (
+    DetectionDirector,
     ParameterFileError,
     PipelineError,
     SourceError,
@@ -196,6 +197,9 @@ def make_plan(params: str, specs: Sequence[str], out: str, fmt: str = "jsonl", m
         if not system.kind:
             raise UserError(f"{params}: kind: no module declares its data kind")
         get_kind(system.kind)
+        not_ready = DetectionDirector(system).not_ready()  # e.g. a feature file saved before any selection
+        if not_ready:
+            raise UserError(f"{params}: " + "; ".join(not_ready))
     except (ParameterFileError, UnknownModuleError, PipelineError) as exc:
         raise UserError(str(exc)) from None
     if fmt == "mcap":

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import logging
 import sys
+from pathlib import Path
+from typing import IO
 
 #: Exit code for a mistake in what the user asked for (a bad file, source or option).
 USER_ERROR = 2
@@ -25,3 +27,14 @@ def configure_logging(prog: str, verbose: bool) -> None:
 def report(prog: str, message: object) -> None:
     """One error line on stderr."""
     sys.stderr.write(f"{prog}: error: {message}\n")
+
+
+def open_text_output(path: str) -> IO[str]:
+    """A text file a command streams into (JSON Lines, reasons), its missing parent folders made; one that
+    cannot be opened is a UserError naming it."""
+    target = Path(path)
+    try:
+        target.parent.mkdir(parents=True, exist_ok=True)
+        return target.open("w", encoding="utf-8")
+    except OSError as exc:
+        raise UserError(f"{path}: cannot be written: {exc.strerror or exc}") from None

@@ -4,7 +4,8 @@ them as typed ROS messages into an MCAP file, a ROS 1 bag or a ROS 2 bag folder 
 Exit codes: 0 done (also after Ctrl-C or SIGTERM, with everything written so far flushed and a typed
 output completed); 1 a failure while running (a source that breaks mid-stream, a full disk under a JSON
 Lines output); 2 a user mistake (bad parameter file, option, or a source that cannot be opened or yields
-not even one frame) and any typed output that cannot be written (it is then left out entirely).
+not even one frame, a detector that cannot detect, such as a feature detector without a target) and any
+typed output that cannot be written (it is then left out entirely).
 """
 
 from __future__ import annotations
@@ -40,9 +41,9 @@ from objrec_core import (
 from rerunio import RerunUnavailable
 from strictio import OutputError
 
-from . import outputs
+from . import explain, outputs
 from .annotation_writer import AnnotationError, AnnotationWriter
-from .cli import USER_ERROR, UserError, configure_logging, report
+from .cli import USER_ERROR, UserError, configure_logging, open_text_output, report
 from .rerun_log import open_rerun
 
 log = logging.getLogger("objrec.detect")
@@ -90,6 +91,7 @@ def build_parser() -> argparse.ArgumentParser:
         help="objects: detections drawn on the original frame; debug: the detector's own view (e.g. matches)",
     )
     parser.add_argument("--skip-empty", action="store_true", help="write no line for frames with no object")
+    parser.add_argument(explain.OPTION, metavar="PATH", nargs="?", const=explain.STDERR, help=explain.HELP)
     parser.add_argument(
         "--progress", action=argparse.BooleanOptionalAction, default=None, help="progress bar (default: on a terminal)"
     )
@@ -159,6 +161,10 @@ def _open(args: argparse.Namespace) -> tuple[DetectionDirector, FrameSource, Kin
         raise UserError(str(exc)) from None
     if not system.detectors:
         raise UserError(f"{args.params}: pipeline: has no detector, so nothing would be detected")
+    director = DetectionDirector(system, frame_id=args.frame_id)
+    not_ready = director.not_ready()
+    if not_ready:
+        raise UserError(f"{args.params}: " + "; ".join(not_ready))
     try:
         kind = get_kind(system.kind) if system.kind else None
         if kind is None:
@@ -166,7 +172,7 @@ def _open(args: argparse.Namespace) -> tuple[DetectionDirector, FrameSource, Kin
         source = open_source(args.source, kind.name)
     except (SourceError, UnknownModuleError) as exc:
         raise UserError(str(exc)) from None
-    return DetectionDirector(system, frame_id=args.frame_id), source, kind
+    return director, source, kind
 
 
 def _check_output_options(args: argparse.Namespace) -> None:
@@ -211,20 +217,20 @@ def _list_topics(args: argparse.Namespace, stdout: IO[str]) -> int:
     return 0
 
 
-def _output_stream(path: str) -> IO[str]:
-    """The JSON Lines file, its missing parent folders made."""
-    target = Path(path)
-    try:
-        target.parent.mkdir(parents=True, exist_ok=True)
-        return target.open("w", encoding="utf-8")
-    except OSError as exc:
-        raise UserError(f"{path}: cannot be written: {exc.strerror or exc}") from None
+def _check_explain(args: argparse.Namespace) -> None:
+    if args.explain == "":
+        raise UserError("--explain=: give a path after the =, or --explain alone for the reasons on stderr")
+    if args.explain in (None, explain.STDERR) or not args.output:
+        return
+    if Path(args.explain).resolve() == Path(args.output).resolve():
+        raise UserError(f"--explain={args.explain}: the same file as --output; give the reasons a file of their own")
 
 
 def run(args: argparse.Namespace, stdout: IO[str]) -> int:
     if args.list_topics:
         return _list_topics(args, stdout)
     _check_output_options(args)
+    _check_explain(args)
     director, source, kind = _open(args)
     stopper = _Stopper()
     previous = {}
@@ -234,8 +240,12 @@ def run(args: argparse.Namespace, stdout: IO[str]) -> int:
     output = None
     typed = None
     recorder = None
+    reasons = None
     status = 0
     try:
+        if args.explain is not None:
+            reasons = explain.Explainer(args.explain)
+            director.add_outcome_sink(reasons.sink)
         if args.rerun:
             try:
                 recorder = open_rerun(args.rerun, kind, director.system)
@@ -247,7 +257,7 @@ def run(args: argparse.Namespace, stdout: IO[str]) -> int:
         if typed is not None:
             director.add_sink(_skipping_empty(typed) if args.skip_empty else typed)
         else:
-            output = _output_stream(args.output) if args.output else None
+            output = open_text_output(args.output) if args.output else None
             director.add_sink(JSONLinesSink(output or stdout, skip_empty=args.skip_empty))
         if args.annotate:
             try:
@@ -257,7 +267,8 @@ def run(args: argparse.Namespace, stdout: IO[str]) -> int:
             debug = args.annotate_view == "debug"
             director.keep_stages = director.keep_stages or debug
             director.add_annotation_sink(PictureSink(writer, kind, debug=debug))
-        director.run_all(source, args.max_frames, stop=stopper.event, progress=BarProgress(args.progress))
+        bar = args.progress if reasons is None or not reasons.to_stderr else bool(args.progress)  # no bar amid them
+        director.run_all(source, args.max_frames, stop=stopper.event, progress=BarProgress(bar))
         if director.stats.stopped_by == "stop":
             log.warning("stopped by %s after %d frames", stopper.reason, director.stats.frames)
     except KeyboardInterrupt:
@@ -270,6 +281,9 @@ def run(args: argparse.Namespace, stdout: IO[str]) -> int:
     except OutputError as exc:  # a typed output that cannot be written: it is left out entirely
         report(PROG, exc)
         status = 2
+    except explain.ExplainWriteError as exc:
+        report(PROG, exc)
+        status = reasons.exit_status() if reasons is not None else 1
     except OSError as exc:  # the output went away: a full disk, a closed device
         report(PROG, f"writing {args.output or 'the output'}: {exc.strerror or exc}")
         status = 1
@@ -285,6 +299,7 @@ def run(args: argparse.Namespace, stdout: IO[str]) -> int:
         if output is not None:
             with contextlib.suppress(OSError):  # already reported above
                 output.close()
+        status = _close_reasons(reasons, status)
         source.close()
         for sig, handler in previous.items():
             signal.signal(sig, handler)
@@ -300,6 +315,19 @@ def run(args: argparse.Namespace, stdout: IO[str]) -> int:
     if typed is not None:
         print(f"{PROG}: {typed.count} messages on {typed.topic} written to {args.output}", file=sys.stderr)
     return 0
+
+
+def _close_reasons(reasons: explain.Explainer | None, status: int) -> int:
+    """Close the side file of reasons; a failure that was not reported yet is reported now."""
+    if reasons is None:
+        return status
+    try:
+        reasons.close()
+    except explain.ExplainWriteError as exc:
+        if not status:  # else the run already failed, and said so
+            report(PROG, exc)
+            return reasons.exit_status()
+    return status
 
 
 def _finish_typed(typed: Any, keep: bool, status: int) -> int:
@@ -318,7 +346,7 @@ def _finish_typed(typed: Any, keep: bool, status: int) -> int:
 
 def main(argv: list[str] | None = None) -> int:
     parser = build_parser()
-    args = parser.parse_args(argv)
+    args = parser.parse_args(explain.bare_option_to_stderr(sys.argv[1:] if argv is None else argv))
     if not args.list_topics and (args.params is None or args.source is None):
         parser.error("PARAMS_FILE and --source are required (except with --list-topics)")
     configure_logging(PROG, args.verbose)

@@ -8,11 +8,13 @@ from .geometry import (
     PolygonLimits,
     check_quadrilateral,
     corner_error,
+    inside_convex,
+    overlap,
     rect_corners,
     unavailable_homography_methods,
 )
 from .matching import MATCHERS, Matches, TrainedMatcher
-from .result import DetectionStatus, FeatureMatch
+from .result import DetectionStatus, FeatureMatch, Instance
 from .target import Target, TargetError, target_from_state, target_to_state
 from .types import (
     FEATURE_TYPES,
@@ -33,6 +35,7 @@ __all__ = [
     "FeatureConfig",
     "FeatureMatch",
     "FeatureUnavailable",
+    "Instance",
     "Matches",
     "PolygonLimits",
     "Target",
@@ -42,7 +45,9 @@ __all__ = [
     "check_quadrilateral",
     "corner_error",
     "create_feature2d",
+    "inside_convex",
     "keypoints_view",
+    "overlap",
     "rect_corners",
     "side_by_side",
     "target_from_state",

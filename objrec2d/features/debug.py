@@ -27,6 +27,9 @@ def _poly(canvas: np.ndarray, corners: np.ndarray, colour: tuple[int, int, int],
 def _status_line(canvas: np.ndarray, match: FeatureMatch | None) -> None:
     if match is None:
         text, colour = "no frame processed", REJECTED
+    elif len(match.instances) > 1:
+        text = f"found {len(match.instances)} copies: " + "+".join(str(i.inlier_count) for i in match.instances)
+        text, colour = text + " inliers", FOUND
     elif match.found:
         text = f"found: {len(match.matches)} matches, {match.inlier_count} inliers"
         colour = FOUND
@@ -38,8 +41,20 @@ def _status_line(canvas: np.ndarray, match: FeatureMatch | None) -> None:
 
 
 def _draw_quadrilateral(canvas: np.ndarray, match: FeatureMatch) -> None:
-    if match.quadrilateral is not None and np.all(np.isfinite(match.quadrilateral)):
-        _poly(canvas, match.quadrilateral, FOUND if match.found else REJECTED, 2 if match.found else 1)
+    """Every copy found (or the rejected outline, thin and red)."""
+    if match.found:
+        for instance in match.instances or ():
+            _poly(canvas, instance.quadrilateral, FOUND, 2)
+    elif match.quadrilateral is not None and np.all(np.isfinite(match.quadrilateral)):
+        _poly(canvas, match.quadrilateral, REJECTED, 1)
+
+
+def _match_sets(match: FeatureMatch) -> list[tuple[np.ndarray, np.ndarray, np.ndarray]]:
+    """(frame index, target index, inlier mask) per copy found, or of the one attempt."""
+    if match.instances:
+        return [(i.matches.frame_idx, i.matches.target_idx, i.inliers) for i in match.instances]
+    inliers = match.inliers if len(match.inliers) == len(match.matches) else np.zeros(len(match.matches), bool)
+    return [(match.matches.frame_idx, match.matches.target_idx, inliers)]
 
 
 def keypoints_view(frame: np.ndarray, match: FeatureMatch | None) -> np.ndarray:
@@ -48,9 +63,10 @@ def keypoints_view(frame: np.ndarray, match: FeatureMatch | None) -> np.ndarray:
     if match is not None:
         for x, y in np.round(match.frame_points).astype(int):
             cv2.circle(canvas, (int(x), int(y)), 2, KEYPOINT, 1, cv2.LINE_AA)
-        for index, inlier in zip(match.matches.frame_idx, match.inliers, strict=True):
-            x, y = np.round(match.frame_points[index]).astype(int)
-            cv2.circle(canvas, (int(x), int(y)), 4, INLIER if inlier else OUTLIER, 1, cv2.LINE_AA)
+        for frame_idx, _, inliers in _match_sets(match):
+            for index, inlier in zip(frame_idx, inliers, strict=True):
+                x, y = np.round(match.frame_points[index]).astype(int)
+                cv2.circle(canvas, (int(x), int(y)), 4, INLIER if inlier else OUTLIER, 1, cv2.LINE_AA)
         _draw_quadrilateral(canvas, match)
     _status_line(canvas, match)
     return canvas
@@ -73,14 +89,14 @@ def side_by_side(frame: np.ndarray, target: Target | None, match: FeatureMatch |
     _poly(canvas, target.corners() + np.float32([offset, 0]), SELECTION, 1)
     for x, y in np.round(target.points).astype(int):
         cv2.circle(canvas, (int(x) + offset, int(y)), 2, KEYPOINT, 1, cv2.LINE_AA)
-    if match is not None and len(match.matches):
-        frame_xy = match.frame_points[match.matches.frame_idx]
-        target_xy = target.points[match.matches.target_idx] + np.float32([offset, 0])
-        inliers = match.inliers if len(match.inliers) == len(match.matches) else np.zeros(len(match.matches), bool)
-        for draw_inliers in (False, True):
-            colour = INLIER if draw_inliers else OUTLIER
+    sets = _match_sets(match) if match is not None and len(match.matches) else []
+    for draw_inliers in (False, True):
+        colour = INLIER if draw_inliers else OUTLIER
+        for frame_idx, target_idx, inliers in sets:
             chosen = inliers == draw_inliers
-            for (fx, fy), (tx, ty) in zip(frame_xy[chosen], target_xy[chosen], strict=True):
+            frame_xy = match.frame_points[frame_idx[chosen]]
+            target_xy = target.points[target_idx[chosen]] + np.float32([offset, 0])
+            for (fx, fy), (tx, ty) in zip(frame_xy, target_xy, strict=True):
                 cv2.line(canvas, (round(fx), round(fy)), (round(tx), round(ty)), colour, 1, cv2.LINE_AA)
     if match is not None:
         _draw_quadrilateral(canvas, match)

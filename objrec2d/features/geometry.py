@@ -155,6 +155,29 @@ def inlier_coverage(target_points: np.ndarray, roi_area: float) -> float:
     return float(cv2.contourArea(hull)) / roi_area
 
 
+def inside_convex(points: np.ndarray, polygon: np.ndarray) -> np.ndarray:
+    """Which ``points`` (N x 2) lie inside (or on) the convex ``polygon`` (either winding): the frame
+    keypoints a found copy of the target occupies, which cannot belong to another copy."""
+    points = np.asarray(points, dtype=np.float64).reshape(-1, 2)
+    corners = np.asarray(polygon, dtype=np.float64).reshape(-1, 2)
+    if len(points) == 0:
+        return np.zeros(0, dtype=bool)
+    edges = np.roll(corners, -1, axis=0) - corners
+    relative = points[:, None, :] - corners[None, :, :]
+    cross = edges[None, :, 0] * relative[:, :, 1] - edges[None, :, 1] * relative[:, :, 0]
+    return np.all(cross >= 0, axis=1) | np.all(cross <= 0, axis=1)
+
+
+def overlap(a: np.ndarray, b: np.ndarray) -> float:
+    """Intersection over union of two convex outlines (0 where they do not touch): how much two found
+    copies of the target share, to tell a second copy from the same one found again."""
+    a32 = np.ascontiguousarray(a, dtype=np.float32).reshape(-1, 2)
+    b32 = np.ascontiguousarray(b, dtype=np.float32).reshape(-1, 2)
+    inter, _ = cv2.intersectConvexConvex(a32, b32)
+    union = cv2.contourArea(a32) + cv2.contourArea(b32) - inter
+    return float(inter / union) if union > 0 else 0.0
+
+
 def corner_error(found: np.ndarray, truth: np.ndarray) -> float:
     """The largest distance between corresponding corners, in pixels (for tests and benchmarks)."""
     found = np.asarray(found, dtype=np.float64).reshape(-1, 2)

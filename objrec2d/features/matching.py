@@ -81,6 +81,14 @@ class TrainedMatcher:
         keypoints take the same target keypoint, the closest wins, so no target point is counted twice
         as an inlier.
         """
+        candidates = self.candidates(frame_descriptors, ratio)
+        return self.select(candidates, frame_descriptors, cross_check)
+
+    def candidates(self, frame_descriptors: np.ndarray, ratio: float | None) -> Matches:
+        """Each frame keypoint's nearest target keypoint that passes the ratio test; not yet one-to-one.
+
+        These depend on each frame keypoint alone, so a detector looking for several copies of the target
+        computes them once per frame and runs ``select`` on what is left after each copy."""
         if frame_descriptors is None or len(frame_descriptors) == 0 or len(self.target_descriptors) == 0:
             return Matches.empty()
         frame_descriptors = _check_descriptors(frame_descriptors, self.binary, "frame")
@@ -94,8 +102,24 @@ class TrainedMatcher:
         if not kept:
             return Matches.empty()
         table = np.array([(m.queryIdx, m.trainIdx, m.distance) for m in kept], dtype=np.float64)
-        frame_idx, target_idx = table[:, 0].astype(np.int32), table[:, 1].astype(np.int32)
-        distance = table[:, 2].astype(np.float32)
+        return Matches(table[:, 0].astype(np.int32), table[:, 1].astype(np.int32), table[:, 2].astype(np.float32))
+
+    def select(
+        self,
+        candidates: Matches,
+        frame_descriptors: np.ndarray,
+        cross_check: bool,
+        available: np.ndarray | None = None,
+    ) -> Matches:
+        """The one-to-one matches among ``candidates`` whose frame keypoint is ``available`` (a mask over
+        the frame keypoints; all where None). The cross check looks only at available frame keypoints, so
+        a copy of the target already found does not take the best match of the next one."""
+        frame_idx, target_idx, distance = candidates.frame_idx, candidates.target_idx, candidates.distance
+        if available is not None and len(frame_idx):
+            keep = available[frame_idx]
+            frame_idx, target_idx, distance = frame_idx[keep], target_idx[keep], distance[keep]
+        if len(frame_idx) == 0:
+            return Matches.empty()
         # One frame keypoint per target keypoint: sort by target then distance, keep each target's first.
         order = np.lexsort((distance, target_idx))
         first = np.ones(len(order), dtype=bool)
@@ -103,17 +127,24 @@ class TrainedMatcher:
         keep = order[first]
         frame_idx, target_idx, distance = frame_idx[keep], target_idx[keep], distance[keep]
         if cross_check:
-            mutual = self._reverse_best(frame_descriptors)[target_idx] == frame_idx
+            mutual = self._reverse_best(frame_descriptors, available)[target_idx] == frame_idx
             frame_idx, target_idx, distance = frame_idx[mutual], target_idx[mutual], distance[mutual]
         return Matches(frame_idx, target_idx, distance)
 
-    def _reverse_best(self, frame_descriptors: np.ndarray) -> np.ndarray:
-        """For each target descriptor, the index of its nearest frame descriptor (-1 where none)."""
+    def _reverse_best(self, frame_descriptors: np.ndarray, available: np.ndarray | None = None) -> np.ndarray:
+        """For each target descriptor, the index of its nearest available frame descriptor (-1 where none)."""
+        best = np.full(len(self.target_descriptors), -1, dtype=np.int32)
+        frame_descriptors = _check_descriptors(frame_descriptors, self.binary, "frame")
+        index = np.arange(len(frame_descriptors), dtype=np.int32)
+        if available is not None:
+            index = index[available]
+            frame_descriptors = frame_descriptors[available]
+        if len(frame_descriptors) == 0:
+            return best
         if self.kind == "brute_force":
             reverse = cv2.BFMatcher(self.norm).match(self.target_descriptors, frame_descriptors)
         else:
             reverse = _flann_matcher(self.binary).match(self.target_descriptors, frame_descriptors)
-        best = np.full(len(self.target_descriptors), -1, dtype=np.int32)
         for m in reverse:
-            best[m.queryIdx] = m.trainIdx
+            best[m.queryIdx] = index[m.trainIdx]
         return best

@@ -16,11 +16,28 @@ class DetectionStatus(enum.Enum):
 
     FOUND = "found"
     NO_TARGET = "no target"
+    TOO_FEW_KEYPOINTS = "too few keypoints"
     TOO_FEW_MATCHES = "too few matches"
     NO_HOMOGRAPHY = "no homography"
     TOO_FEW_INLIERS = "too few inliers"
     BUNCHED_INLIERS = "inliers bunched"
     DEGENERATE_POLYGON = "degenerate polygon"
+
+
+@dataclass(frozen=True)
+class Instance:
+    """One copy of the target found in a frame: its matches, their inlier mask, the homography, the
+    projected outline and the share of the target its inliers span."""
+
+    matches: Matches
+    inliers: np.ndarray  # per match
+    homography: np.ndarray
+    quadrilateral: np.ndarray
+    coverage: float
+
+    @property
+    def inlier_count(self) -> int:
+        return int(self.inliers.sum())
 
 
 @dataclass(frozen=True)
@@ -35,6 +52,11 @@ class FeatureMatch:
     inliers: np.ndarray = field(default_factory=lambda: np.empty(0, bool))  # per match
     homography: np.ndarray | None = None
     quadrilateral: np.ndarray | None = None  # the projected selection, also when it was rejected
+    coverage: float | None = None  # the share of the target the inliers span, where it was measured
+    # Every copy found, best first; the fields above describe the first (or the failed attempt).
+    instances: tuple[Instance, ...] = ()
+    # Why no further copy was reported after the last one found (None where max_instances was reached).
+    next_reason: str | None = None
 
     @property
     def found(self) -> bool:

@@ -80,15 +80,39 @@ def compute_features(extractor: Any, gray: np.ndarray, mask: np.ndarray | None =
     return tuple(keypoints), descriptors
 
 
+def _with_context(gray: np.ndarray, roi: Rect) -> tuple[np.ndarray, tuple[int, int]]:
+    """The image extended, by repeating its edge pixels, to TARGET_MARGIN px of context on every side of
+    the selection, and the offset of the original in it.
+
+    ORB and BRISK keep keypoints a patch's width (31 px for ORB, at every pyramid level) away from the
+    image's edge. A selection without context around it (an image selected whole, as box.png, or one at
+    the frame's edge) would lose a band of keypoints along each side that way: on box.png the inliers
+    then spanned 12 % of the box. The stored image stays as selected; only keypoint detection sees this.
+    """
+    height, width = gray.shape[:2]
+    top = max(TARGET_MARGIN - roi.y, 0)
+    left = max(TARGET_MARGIN - roi.x, 0)
+    bottom = max(roi.y + roi.height + TARGET_MARGIN - height, 0)
+    right = max(roi.x + roi.width + TARGET_MARGIN - width, 0)
+    if not (top or left or bottom or right):
+        return gray, (0, 0)
+    return cv2.copyMakeBorder(gray, top, bottom, left, right, cv2.BORDER_REPLICATE), (left, top)
+
+
 def compute_target(image: np.ndarray, roi: Rect, rect: Rect, config: FeatureConfig) -> Target:
     """Keypoints and descriptors of the selection ``roi`` of ``image``."""
     if clip_rect(roi, image.shape) != roi:
         raise TargetError(f"the selection {roi} does not lie inside the {image.shape[1]}x{image.shape[0]} image")
-    gray = as_gray(image)
+    gray, (dx, dy) = _with_context(as_gray(image), roi)
     mask = np.zeros(gray.shape, dtype=np.uint8)
-    mask[roi.y : roi.y + roi.height, roi.x : roi.x + roi.width] = 255
+    mask[roi.y + dy : roi.y + dy + roi.height, roi.x + dx : roi.x + dx + roi.width] = 255
     extractor = create_feature2d(config)
     keypoints, descriptors = compute_features(extractor, gray, mask)
+    if dx or dy:
+        keypoints = tuple(
+            cv2.KeyPoint(kp.pt[0] - dx, kp.pt[1] - dy, kp.size, kp.angle, kp.response, kp.octave, kp.class_id)
+            for kp in keypoints
+        )
     points = np.array([kp.pt for kp in keypoints], dtype=np.float32).reshape(-1, 2)
     return Target(image, roi, rect, config, keypoints, points, descriptors, descriptor_norm(extractor, descriptors))
 

@@ -105,7 +105,8 @@ def test_detection_director_feeds_sinks_with_sequenced_headers():
 
 
 def test_a_module_added_while_running_applies_from_the_next_frame():
-    system = RecognitionSystem([BinaryDetector(id="b")])
+    # Asked for: the blob of the whole grey frame (touching the border, covering it all) counts as an object.
+    system = RecognitionSystem([BinaryDetector(id="b", border_blobs=True, max_area_fraction=1.0)])
     director = DetectionDirector(system)
     frames = iter([picture()] * 2)
     assert len(director.process(next(frames)).objects) == 1  # the grey frame is one big blob

@@ -58,7 +58,7 @@ def test_each_detector_says_what_it_found_or_why_not(make_gui, qtbot):
     found = len(next(s for s in gui.last_results.stages if s.id == "blobs").objects)
     assert found >= 3  # the demo's coloured objects
     assert f"blobs: {found} objects" in text
-    assert "poster: no target selected" in text  # the feature detector's own reason
+    assert "poster: no target: select one" in text  # the feature detector's own reason, whole
 
 
 def test_a_detector_moved_above_a_filter_is_reported(make_gui, qtbot):

@@ -126,8 +126,9 @@ def test_surf_is_refused_with_its_reason_where_it_is_unavailable():
 def test_each_types_own_settings_are_relevant_only_for_that_type():
     detector = FeatureDetector()
     shared = ["matcher", "ratio_test", "ratio", "cross_check", "min_matches", "homography_method",
-              "reprojection_threshold", "min_inliers", "min_inlier_coverage", "min_area", "max_area_fraction",
-              "min_corner_angle", "debug_view"]
+              "reprojection_threshold", "homography_max_iterations", "homography_confidence", "min_inliers",
+              "min_inlier_coverage", "min_area", "max_area_fraction", "min_corner_angle", "max_instances",
+              "debug_view"]
     orb = ["feature_type", "max_features", "orb_scale_factor", "orb_levels", "orb_fast_threshold"]
     assert detector.relevant_parameters() == orb + shared
     detector.set_parameters(feature_type="SIFT")
@@ -142,6 +143,9 @@ def test_each_types_own_settings_are_relevant_only_for_that_type():
         detector.get_parameters() | {"ratio_test": False, "homography_method": "LMEDS"}
     )
     assert "ratio" not in others and "reprojection_threshold" not in others and "ratio_test" in others
+    assert "homography_max_iterations" not in others and "homography_confidence" in others  # LMEDS sets its own
+    several = detector.relevant_parameters(detector.get_parameters() | {"max_instances": 3})
+    assert several[-3:] == ["max_instances", "max_instance_overlap", "debug_view"]
     spec = FeatureDetector.parameter_spec("orb_levels")
     assert spec.relevance_text() == "only when feature_type is ORB"
     # Every type-specific setting is relevant exactly for the types whose configuration includes it.
@@ -268,8 +272,10 @@ def test_each_failure_has_its_status_and_reason(poster):
     detector = selected(poster)
     assert len(detector.detect(frame)) == 1 and detector.last_status is DetectionStatus.FOUND
     assert detector.detect(blank) == []
-    assert detector.last_status is DetectionStatus.TOO_FEW_MATCHES
-    assert detector.last_reason == "too few matches: 0 of 0 keypoints, min_matches is 10"
+    assert detector.last_status is DetectionStatus.TOO_FEW_KEYPOINTS
+    assert detector.last_reason == (
+        "too few keypoints in the frame: 0 ORB keypoints, min_matches is 10 (a plain, dark or blurred frame?)"
+    )
     found = selected(poster)
     found.detect(frame)
     inliers = found.last_result.inlier_count

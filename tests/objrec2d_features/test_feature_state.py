@@ -132,7 +132,8 @@ def test_no_target_saves_no_state_and_loading_none_clears_it(frames, scene, tmp_
     loaded = build_system(tmp_path / "empty.yaml").detectors[0]
     assert loaded.target is None
     assert loaded.detect(frames[1][0]) == [] and loaded.last_status is DetectionStatus.NO_TARGET
-    assert loaded.last_reason == "no target selected"
+    assert loaded.last_reason == "no target: select one in objrec-define (drag a rectangle around the object)"
+    assert loaded.ready() == loaded.last_reason
     running = poster_detector(frames, scene)
     ParameterStorage(RecognitionSystem([running])).load_parameters(tmp_path / "empty.yaml")
     assert running.target is None

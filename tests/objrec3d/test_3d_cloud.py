@@ -6,7 +6,6 @@ import numpy as np
 import pytest
 
 from objrec3d import CloudFileError, PointCloud, read_cloud, read_pcd, write_pcd
-from objrec3d.lzf import LZFError, lzf_decompress, lzf_store
 
 
 def _organized(seed: int = 0) -> PointCloud:
@@ -60,28 +59,28 @@ def test_pcd_round_trip_in_every_encoding(tmp_path, encoding: str) -> None:
     np.testing.assert_array_equal(back.colors, cloud.colors)
 
 
-def test_lzf_decodes_back_references_and_refuses_garbage() -> None:
-    # "abcabcabcabc": 3 literals, then a back reference of length 9 at distance 3 (overlapping copy).
-    stream = bytes([2]) + b"abc" + bytes([(7 << 5) | 0, 0, 2])
-    assert lzf_decompress(stream, 12) == b"abcabcabcabc"
-    assert lzf_decompress(lzf_store(b"x" * 100), 100) == b"x" * 100
-    with pytest.raises(LZFError):
-        lzf_decompress(bytes([0xE0, 5, 9]), 20)  # refers before the start
-    with pytest.raises(LZFError):
-        lzf_decompress(bytes([5]) + b"ab", 6)  # literal run cut short
+def _smooth(width: int = 40, height: int = 30) -> PointCloud:
+    """A sloped plane with two colours: data LZF shrinks, so binary_compressed stays compressed."""
+    v, u = np.mgrid[0:height, 0:width].astype(np.float32)
+    points = np.stack([u * 0.01, v * 0.01, 1.0 + 0.001 * u], axis=-1)
+    colors = np.zeros((height, width, 3), np.uint8)
+    colors[:, width // 2 :] = (200, 30, 10)
+    return PointCloud(points, colors)
 
 
 def test_corrupt_and_truncated_pcd_files_name_the_file_and_the_problem(tmp_path) -> None:
     cloud = _organized()
     good = tmp_path / "good.pcd"
-    write_pcd(good, cloud, "binary_compressed")
+    write_pcd(good, _smooth(), "binary_compressed")
     raw = good.read_bytes()
+    assert b"DATA binary_compressed\n" in raw
+    sizes_end = raw.index(b"DATA binary_compressed\n") + 31  # the header, then the two 4-byte sizes
     cases = {
         "truncated.pcd": (raw[: len(raw) - 40], "truncated"),
         "garbage.pcd": (b"\x00\x01 not a cloud at all", "not a PCD file"),
         "noheader.pcd": (b"hello\nworld\n", "not a PCD file"),
-        "badcount.pcd": (raw.replace(b"POINTS 20", b"POINTS 21"), "POINTS 21"),
-        "badlzf.pcd": (raw[: raw.index(b"DATA binary_compressed\n") + 31] + b"\xff" * (len(raw) - 200), "corrupt"),
+        "badcount.pcd": (raw.replace(b"POINTS 1200", b"POINTS 1201"), "POINTS 1201"),
+        "badlzf.pcd": (raw[:sizes_end] + b"\xff" * (len(raw) - sizes_end), "corrupt compressed data"),
     }
     for name, (data, words) in cases.items():
         path = tmp_path / name

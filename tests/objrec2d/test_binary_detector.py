@@ -1,0 +1,117 @@
+"""BinaryDetector: the background and cut-off blobs are not objects unless asked for, and when nothing is
+found ``last_reason`` says which rule dropped what."""
+
+from __future__ import annotations
+
+import cv2
+import numpy as np
+import pytest
+
+from objrec2d import BinaryDetector, DemoScene
+from objrec_core import DetectionDirector, build_system
+
+WIDTH, HEIGHT = 640, 480
+
+
+def mask() -> np.ndarray:
+    return np.zeros((HEIGHT, WIDTH), np.uint8)
+
+
+def test_the_whole_frame_is_not_an_object_at_defaults():
+    full = np.full((HEIGHT, WIDTH), 255, np.uint8)
+    detector = BinaryDetector()
+    assert cv2.arcLength(np.array([[0, 0], [WIDTH - 1, 0], [WIDTH - 1, HEIGHT - 1], [0, HEIGHT - 1]]), True) == 2236
+    assert detector.max_contour_length == 5000.0  # the outline is within the length range: the border rule drops it
+    assert detector.detect(full) == []
+    assert detector.last_reason == "1 blob, none kept: 1 touching the image border (border_blobs is off)"
+    # With border blobs asked for, the area rule still keeps the background out (639 x 479 of 640 x 480).
+    bordered = BinaryDetector(border_blobs=True)
+    assert bordered.detect(full) == []
+    assert bordered.last_reason == (
+        "1 blob, none kept: 1 covering more than max_area_fraction 0.9 of the image (smallest 100%)"
+    )
+    # Both rules off: the old behaviour, one object of the whole frame.
+    (whole,) = BinaryDetector(border_blobs=True, max_area_fraction=1.0).detect(full)
+    assert whole.polygon.area() == pytest.approx(639 * 479)
+
+
+@pytest.mark.parametrize(
+    ("corner", "where"),
+    [((0, 200), "left"), ((200, 0), "top"), ((WIDTH - 40, 200), "right"), ((200, HEIGHT - 40), "bottom")],
+)
+def test_a_blob_touching_any_border_is_dropped_unless_asked_for(corner, where):
+    image = mask()
+    x, y = corner
+    cv2.rectangle(image, (x, y), (x + 39, y + 39), 255, -1)  # a 40 x 40 square flush with the {where} edge
+    cv2.rectangle(image, (300, 200), (339, 239), 255, -1)  # and one clear of every edge
+    detector = BinaryDetector()
+    (kept,) = detector.detect(image)
+    assert kept.polygon.centroid() == pytest.approx((319.5, 219.5)), where
+    assert detector.last_reason is None  # it found something
+    both = BinaryDetector(border_blobs=True).detect(image)
+    assert sorted(round(o.polygon.centroid()[0]) for o in both) == sorted([x + 20, 320]), where
+
+
+def test_a_blob_one_pixel_from_the_border_is_kept():
+    image = mask()
+    cv2.rectangle(image, (1, 1), (40, 40), 255, -1)
+    assert len(BinaryDetector().detect(image)) == 1
+
+
+def test_a_large_blob_clear_of_the_border_is_dropped_only_past_the_area_fraction():
+    image = mask()
+    cv2.rectangle(image, (10, 10), (WIDTH - 11, HEIGHT - 11), 255, -1)  # 620 x 460: 92.8 % of the image
+    assert BinaryDetector(max_contour_length=20000.0).detect(image) == []
+    detector = BinaryDetector(max_contour_length=20000.0, max_area_fraction=0.95)
+    assert len(detector.detect(image)) == 1
+
+
+def test_the_reason_names_each_rule_with_counts_and_the_nearest_value():
+    image = mask()
+    image[100, 100] = image[200, 300] = 255  # two specks: outlines of 0 px
+    cv2.rectangle(image, (400, 100), (404, 104), 255, -1)  # outline 16 px
+    cv2.rectangle(image, (0, 300), (59, 359), 255, -1)  # a border blob
+    detector = BinaryDetector()
+    assert detector.detect(image) == []
+    assert detector.last_reason == (
+        "4 blobs, none kept: 3 shorter than min_contour_length 40 px (longest 16 px), "
+        "1 touching the image border (border_blobs is off)"
+    )
+    long_outline = BinaryDetector(min_contour_length=10.0, max_contour_length=12.0)
+    assert long_outline.detect(image) == []
+    assert long_outline.last_reason == (
+        "4 blobs, none kept: 2 shorter than min_contour_length 10 px (longest 0 px), "
+        "2 longer than max_contour_length 12 px (shortest 16 px)"
+    )
+
+
+def test_an_empty_mask_says_so_and_a_find_clears_the_reason():
+    detector = BinaryDetector()
+    assert detector.last_reason is None  # before any frame
+    assert detector.detect(mask()) == []
+    assert detector.last_reason == "no blob: the mask has no non-zero pixel (the filters before let nothing through)"
+    image = mask()
+    cv2.circle(image, (320, 240), 30, 255, -1)
+    assert len(detector.detect(image)) == 1 and detector.last_reason is None
+
+
+def test_the_parameters_say_what_they_do():
+    spec = BinaryDetector.parameter_spec
+    assert BinaryDetector().border_blobs is False
+    assert (spec("max_area_fraction").default, spec("max_area_fraction").min, spec("max_area_fraction").max) == (
+        0.9, 0.0, 1.0)
+    assert "2236 px" in spec("max_contour_length").doc and "drops the whole-image blob" not in spec(
+        "max_contour_length").doc
+
+
+def test_the_shipped_colour_file_loads_with_the_new_defaults_and_finds_its_four_objects(project_root):
+    system = build_system(project_root / "params" / "hsv_demo.yaml")
+    blobs = system.module("blobs")
+    assert (blobs.border_blobs, blobs.max_area_fraction) == (False, 0.9)  # keys the file does not have
+    director = DetectionDirector(system)
+    for seed in (0, 3, 7):
+        scene = DemoScene(seed=seed)
+        for index in range(0, 300, 25):
+            image, truth = scene.render(index)
+            objects = director.process(image).objects
+            assert len(objects) == len(truth["objects"]) == 4, (seed, index)
