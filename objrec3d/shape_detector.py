@@ -12,6 +12,7 @@ strongest acceptable fits become objects, each reporting its own shape.
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 import math
 from dataclasses import dataclass
@@ -106,7 +107,9 @@ class ShapeDetector(CloudDetector):
 
     def detect(self, frame: Any) -> list[DetectedObject3D]:
         cloud = as_cloud(frame)
-        return self.tracker.assign([self._to_object(found, cloud.sensor_origin) for found in self.find(cloud)])
+        tracked = self.tracker.assign([self._to_object(found, cloud.sensor_origin) for found in self.find(cloud)])
+        # Prefixed with this detector's id: two detectors' objects in one message never share an id.
+        return [dataclasses.replace(obj, id=f"{self.id}-{obj.id}") for obj in tracked]
 
     # -- the search ------------------------------------------------------------------------------------------
     def find(self, cloud: PointCloud) -> list[Found]:

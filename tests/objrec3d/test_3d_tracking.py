@@ -186,3 +186,17 @@ def test_the_typed_ros_message_carries_the_id(tmp_path):
     with AnyReader([out]) as reader:
         messages = [reader.deserialize(raw, c.msgtype) for c, _, raw in reader.messages()]
     assert [[o.id for o in m.objects] for m in messages] == [["1"], ["1"], ["1", ""]]
+
+
+def test_the_shipped_shape_system_keeps_its_ids_over_20_demo_frames(project_root):
+    """The demo's sphere moves about 8 cm and back over these frames; the cylinder stands still."""
+    from objrec_core import build_system, open_source
+
+    system = build_system(project_root / "params" / "shape_demo.yaml")
+    with open_source("demo:frames=20", "3d") as source:
+        frames = [[(o.name, o.id, float(o.box.pose.position.x)) for o in system.process(f.data).objects]
+                  for f in source]
+    assert [[(name, id_) for name, id_, _ in frame] for frame in frames] == [
+        [("cylinder", "cylinder-1"), ("sphere", "sphere-1")]] * 20
+    sphere_x = [frame[1][2] for frame in frames]
+    assert max(sphere_x) - min(sphere_x) > 0.05  # it did move, and kept its id
