@@ -20,7 +20,7 @@ from typing import Any, Protocol
 from .messages import DetectedObjectArray, Header
 from .modules import Detector, Filter, Rect, SelectionRefused
 from .sources import Frame
-from .system import PipelineError, PipelineResult, RecognitionSystem, Stage
+from .system import PipelineError, RecognitionSystem, Stage
 
 log = logging.getLogger(__name__)
 
@@ -197,11 +197,8 @@ class DetectionDirector(_Director):
         """One frame through the pipeline and every sink."""
         if not isinstance(frame, Frame):
             frame = Frame(frame, index=self._seq)
-        if self.outcome_sinks and not self.keep_stages:
-            result, outcomes = self._process_counting(frame.data)
-        else:
-            result = self.system.process(frame.data, keep_stages=self.keep_stages)
-            outcomes = self._outcomes(result.stages) if self.outcome_sinks else []
+        result = self.system.process(frame.data, keep_stages=self.keep_stages)
+        outcomes = [self._outcome(d, n) for d, n in result.found] if self.outcome_sinks else []
         array = self.system.object_array_type(self._header(frame), result.objects)
         for sink in self.sinks:
             sink(array)
@@ -210,26 +207,6 @@ class DetectionDirector(_Director):
         for outcome_sink in self.outcome_sinks:
             outcome_sink(array.header, outcomes)
         return array
-
-    def _process_counting(self, data: Any) -> tuple[PipelineResult, list[DetectorOutcome]]:
-        """The pipeline's headless path (``RecognitionSystem.process`` without stages), counting what each
-        detector found: keeping stages for that would draw every detector's debug view on every frame (5 ms
-        a frame for the feature detector, 70 % more)."""
-        objects: list[Any] = []
-        outcomes = []
-        for module in self.system.modules:
-            if isinstance(module, Filter):
-                data = module.filter(data)
-            elif isinstance(module, Detector):
-                found = module.detect(data)
-                objects.extend(found)
-                outcomes.append(self._outcome(module, len(found)))
-        return PipelineResult(objects), outcomes
-
-    def _outcomes(self, stages: Sequence[Stage] | None) -> list[DetectorOutcome]:
-        detectors = {d.id: d for d in self.system.detectors}
-        return [self._outcome(detectors[s.id], len(s.objects))
-                for s in stages or () if s.role == "detector" and s.id in detectors]
 
     @staticmethod
     def _outcome(detector: Detector, found: int) -> DetectorOutcome:

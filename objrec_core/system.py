@@ -34,6 +34,8 @@ class PipelineResult:
     objects: list[Any]
     stages: list[Stage] | None = None
     detector_inputs: dict[str, Any] = field(default_factory=dict)
+    #: Each detector of the frame's pipeline and how many objects it found (why a frame is empty, per detector).
+    found: list[tuple[Any, int]] = field(default_factory=list)
 
 
 class RecognitionSystem(Subject):
@@ -196,13 +198,16 @@ class RecognitionSystem(Subject):
         """
         modules = self._modules
         objects: list[Any] = []
+        counts: list[tuple[Any, int]] = []
         if not keep_stages:
             for m in modules:
                 if isinstance(m, Filter):
                     data = m.filter(data)
                 else:
-                    objects.extend(m.detect(data))
-            return PipelineResult(objects)
+                    found = m.detect(data)
+                    objects.extend(found)
+                    counts.append((m, len(found)))
+            return PipelineResult(objects, found=counts)
         stages = [Stage("input", "input", "input", data)]
         inputs: dict[str, Any] = {}
         for m in modules:
@@ -213,5 +218,6 @@ class RecognitionSystem(Subject):
                 found = m.detect(data)
                 inputs[m.id] = data
                 objects.extend(found)
+                counts.append((m, len(found)))
                 stages.append(Stage(m.id, m.type_name, "detector", data, found, m.render_debug(data, found)))
-        return PipelineResult(objects, stages, inputs)
+        return PipelineResult(objects, stages, inputs, counts)
