@@ -179,7 +179,7 @@ class ShapeDetector(CloudDetector):
         if shape == "plane":
             return self._search_plane(points, normals, alive, settings, rng, sensor, p)
         settings.shape = shape
-        fit = ransac_shape(points[alive], normals[alive], settings, rng)
+        fit = ransac_shape(points[alive], normals[alive], settings, rng, origin=sensor)
         if fit is None:
             return None, (f"no hypothesis with a radius in {p.min_radius:g}-{p.max_radius:g} m among "
                           f"{alive.size} points")

@@ -2,18 +2,28 @@
 
 One opener (:func:`open_input`) refuses what is not a regular file and caps the bytes read; one YAML reader
 (:func:`read_yaml`) refuses tags, aliases, duplicate keys and deep nesting; one writer
-(:func:`write_atomically`) replaces a file whole or not at all. It imports nothing of the project, so the
+(:func:`write_atomically`) replaces a file whole or not at all; :mod:`strictio.limits` declares how much any
+input may claim. It imports nothing of the project, so the
 framework and the navigation stack share it without depending on each other.
 """
 
 from .atomic import write_atomically
 from .errors import InputError, OutputError
+from .limits import ALL_LIMITS, CLOUD_POINTS, IMAGE_PIXELS, MAP_CELLS, POSES, YAML_NODES, Limit, LimitError
 from .opener import DEFAULT_LIMIT, open_input, read_bytes, read_text
 from .yaml_reader import YAMLLimits, read_yaml, yaml_text
 
 __all__ = [
+    "ALL_LIMITS",
+    "CLOUD_POINTS",
     "DEFAULT_LIMIT",
+    "IMAGE_PIXELS",
+    "MAP_CELLS",
+    "POSES",
+    "YAML_NODES",
     "InputError",
+    "Limit",
+    "LimitError",
     "OutputError",
     "YAMLLimits",
     "open_input",
