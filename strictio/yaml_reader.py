@@ -15,6 +15,7 @@ from typing import Any
 import yaml
 
 from .errors import InputError
+from .limits import YAML_NODES, LimitError
 from .opener import read_text
 
 _short = reprlib.Repr()
@@ -30,14 +31,23 @@ class YAMLLimits:
     max_depth: int = 50
 
 
+class _TooManyNodes(Exception):
+    """Raised inside the loader; reported as a LimitError naming the file."""
+
+
 class _StrictLoader(yaml.SafeLoader):
     max_depth = YAMLLimits.max_depth
 
     def __init__(self, stream: str) -> None:
         super().__init__(stream)
         self._depth = 0
+        self._nodes = 0
+        self._max_nodes = YAML_NODES.value()
 
     def compose_node(self, parent: Any, index: Any) -> Any:
+        self._nodes += 1
+        if self._nodes > self._max_nodes:
+            raise _TooManyNodes(self._nodes)
         if self.check_event(yaml.AliasEvent):
             event = self.peek_event()
             raise yaml.composer.ComposerError(None, None, "aliases (*name) are not allowed", event.start_mark)
@@ -77,6 +87,8 @@ def yaml_text(text: str, path: str | os.PathLike[str] = "<text>", limits: YAMLLi
         return loader.get_single_data()
     except RecursionError:
         raise InputError(path, "not valid YAML: nested too deeply") from None
+    except _TooManyNodes as exc:
+        raise LimitError(path, YAML_NODES, int(str(exc)), "YAML values and collections, at least") from None
     except yaml.MarkedYAMLError as exc:
         mark = exc.problem_mark or exc.context_mark
         where = f"line {mark.line + 1}, column {mark.column + 1}" if mark else ""
