@@ -81,6 +81,8 @@ def draw_objects(image: np.ndarray, objects: Iterable[Any], intrinsics: tuple[fl
                  ) -> np.ndarray:
     """Draw each object's box (its 12 edges) and a label onto ``image`` (in place; also returned)."""
     fx, fy, cx, cy = intrinsics
+    placed: list[tuple[int, int, int, int]] = []
+    labels: list[tuple[str, tuple[int, int]]] = []
     for obj in objects:
         if not isinstance(obj, DetectedObject3D):
             obj = DetectedObject3D.from_dict(obj) if isinstance(obj, dict) else obj
@@ -91,13 +93,50 @@ def draw_objects(image: np.ndarray, objects: Iterable[Any], intrinsics: tuple[fl
         pts = np.round(uv).astype(np.int32)
         for a, b in _EDGES:
             cv2.line(image, tuple(int(c) for c in pts[a]), tuple(int(c) for c in pts[b]), (0, 255, 0), 2, cv2.LINE_AA)
-        label = obj.name
-        if obj.shape:
-            label += ("" if obj.shape == obj.name else f" ({obj.shape})") + f" r={obj.radius * 1000:.1f}mm"
         top = pts[np.argmin(pts[:, 1])]
-        cv2.putText(image, label, (int(top[0]) - 40, max(int(top[1]) - 8, 12)), cv2.FONT_HERSHEY_SIMPLEX, 0.45,
-                    (0, 255, 255), 1, cv2.LINE_AA)
+        labels.append((_label(obj), (int(top[0]), int(top[1]) - 8)))
+    for text, anchor in labels:  # after every box, so that no box edge crosses a label
+        _put_label(image, text, anchor, placed)
     return image
+
+
+def _label(obj: DetectedObject3D) -> str:
+    """Name, shape and size: the radius of a round shape, the extent of a plane."""
+    label = obj.name
+    if obj.shape:
+        label += "" if obj.shape == obj.name else f" ({obj.shape})"
+        if obj.shape == "plane":
+            label += f" {obj.box.width:.2f}x{obj.box.height:.2f}m"
+        else:
+            label += f" r={obj.radius * 1000:.1f}mm"
+    return label
+
+
+_FONT, _SCALE = cv2.FONT_HERSHEY_SIMPLEX, 0.45
+
+
+def _put_label(image: np.ndarray, text: str, anchor: tuple[int, int], placed: list[tuple[int, int, int, int]]
+               ) -> None:
+    """Write ``text`` centred over ``anchor`` on a dark strip, moved up (or down) until it overlaps no label
+    already ``placed``: neighbouring objects' labels stay readable."""
+    (w, h), base = cv2.getTextSize(text, _FONT, _SCALE, 1)
+    height, width = image.shape[:2]
+    x = int(np.clip(anchor[0] - w // 2, 2, max(2, width - w - 2)))
+    y = max(anchor[1], h + 4)
+    step = h + base + 4
+
+    def overlaps(top: int) -> bool:
+        box = (x - 2, top - h - 2, x + w + 2, top + base + 2)
+        return any(box[0] < b[2] and b[0] < box[2] and box[1] < b[3] and b[1] < box[3] for b in placed)
+
+    for candidate in [y - k * step for k in range(8)] + [y + k * step for k in range(1, 8)]:
+        if h + 2 <= candidate <= height - base - 2 and not overlaps(candidate):
+            y = candidate
+            break
+    box = (x - 2, y - h - 2, x + w + 2, y + base + 2)
+    image[max(box[1], 0):box[3], max(box[0], 0):box[2]] //= 3  # a darkened strip under the text
+    cv2.putText(image, text, (x, y), _FONT, _SCALE, (0, 255, 255), 1, cv2.LINE_AA)
+    placed.append(box)
 
 
 def annotate(frame: Any, array: Any) -> np.ndarray:
