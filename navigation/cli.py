@@ -1,7 +1,9 @@
 """``objrec-patrol POSES_FILE --map MAP_YAML``: run the inspection patrol in the built-in simulator.
 
-Results (the summary) go to stdout, diagnostics to stderr. A map or pose file that cannot be used gives
-one error line naming the file and the line or field, and exit code 2.
+Results (the summary) go to stdout, diagnostics to stderr. A map or pose file that cannot be used, an
+option's value out of its declared range, or an output that cannot be written gives one error line naming
+the file (or option) and why, and exit code 2. Ctrl-C or SIGTERM, also during start-up, preempts the patrol:
+it ends in SHUTDOWN with its summary and events written, exit code 0; a second one gives up (130).
 """
 
 from __future__ import annotations
@@ -9,16 +11,14 @@ from __future__ import annotations
 import argparse
 import logging
 import math
-import signal
 import sys
-import threading
 from collections.abc import Sequence
 from dataclasses import replace
 from pathlib import Path
-from types import FrameType
-from typing import Any
 
 from rerunio import RerunUnavailable
+from strictio import InputError, OutputError
+from strictio.cli_numbers import CommandLineParser, Number, check_limit_settings, fields, printable
 
 from .battery import LaptopBatteryParams, RobotBatteryParams, kobuki_percent, kobuki_voltage
 from .diagram import write_diagram
@@ -30,73 +30,82 @@ from .patrol import PatrolMachine
 from .poses import PoseFileError, load_poses
 from .render import ANIMATED, STILL, RunPicture, save_render
 from .rerun_log import PatrolRecorder, open_patrol_rerun
-from .runner import Summary, run_patrol
+from .runner import MAX_STEPS, StopSignals, Summary, run_patrol
 from .simulation import SimConfig, Simulation, StartPoseError
 
 log = logging.getLogger("navigation.cli")
 PROG = "objrec-patrol"
 
 
-def _positive(text: str) -> float:
-    value = float(text)
-    if not value > 0 or not math.isfinite(value):
-        raise argparse.ArgumentTypeError(f"must be a positive number, got {text}")
-    return value
-
-
-def _percent(text: str) -> float:
-    value = float(text)
-    if not 0.0 <= value <= 100.0:
-        raise argparse.ArgumentTypeError(f"must be a percentage in 0..100, got {text}")
-    return value
+# The command-line numbers, each declared once with its range (the inspection command shares the
+# simulation's). A time step below 10 ms buys nothing and multiplies the steps; above 0.5 s the follower and
+# the dock overshoot.
+COORDINATE = Number(-1e6, 1e6)  # metres in the map frame
+YAW = Number(-math.tau, math.tau)  # radians
+LAPS = Number(1, 100_000, whole=True)
+TIME_LIMIT = Number(0, 1e7, above=True)  # simulated seconds
+PERCENT = Number(0, 100)
+HOURS = Number(0.01, 1000)
+DOCK_DISTANCE = Number(0.1, 10)  # metres
+SEED = Number(0, 2**32 - 1, whole=True)
+ODOM_NOISE = Number(0, 1)  # a fraction of each step's motion
+TIME_STEP = Number(0.01, 0.5)  # seconds
+MARGIN = Number(0, 2)  # metres
 
 
 def build_parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(
+    p = CommandLineParser(
         prog=PROG,
         description="Patrol the goal poses of POSES_FILE on a ROS map in a built-in 2D simulator, with the "
                     "patrol state machine (battery monitors, docking, shutdown).")
     p.add_argument("poses", metavar="POSES_FILE", help="goal poses, one 'x, y, z, qx, qy, qz, qw' per line")
     p.add_argument("--map", required=True, metavar="MAP_YAML", help="ROS map_server YAML file")
-    p.add_argument("--start", nargs=3, type=float, metavar=("X", "Y", "YAW"),
-                   help="start pose in the map frame (default: the station pose, else the first goal)")
-    stop = p.add_argument_group("when to stop (default: when the machine ends by itself, or Ctrl-C)")
-    stop.add_argument("--laps", type=int, metavar="N", help="end after N laps of the goals")
-    stop.add_argument("--time-limit", type=_positive, metavar="SECONDS",
+    p.add_argument("--start", nargs=3, action=fields(COORDINATE, COORDINATE, YAW), metavar=("X", "Y", "YAW"),
+                   help="start pose in the map frame, metres and radians (default: the station pose, else the "
+                        "first goal)")
+    stop = p.add_argument_group(
+        "when to stop", f"By default when the machine ends by itself, or on Ctrl-C or SIGTERM; a run flat out "
+        f"ends after {MAX_STEPS:,} steps in any case.")
+    stop.add_argument("--laps", type=LAPS, metavar="N", help=f"end after N laps of the goals ({LAPS.describe()})")
+    stop.add_argument("--time-limit", type=TIME_LIMIT, metavar="SECONDS",
                       help="preempt after this much simulated time")
-    bat = p.add_argument_group("batteries")
-    bat.add_argument("--robot-battery", type=_percent, default=100.0, metavar="PERCENT",
+    bat = p.add_argument_group("batteries (percentages in 0..100, hours in 0.01..1000)")
+    bat.add_argument("--robot-battery", type=PERCENT, default=100.0, metavar="PERCENT",
                      help="robot battery at the start (default 100)")
-    bat.add_argument("--robot-battery-low", type=_percent, metavar="PERCENT",
+    bat.add_argument("--robot-battery-low", type=PERCENT, metavar="PERCENT",
                      help=f"robot low threshold (default {kobuki_percent(14.0):.0f}, the Kobuki's 14.0 V)")
-    bat.add_argument("--robot-runtime", type=_positive, default=3.0, metavar="HOURS",
+    bat.add_argument("--robot-runtime", type=HOURS, default=3.0, metavar="HOURS",
                      help="robot driving time on a full battery (default 3)")
-    bat.add_argument("--robot-charge-time", type=_positive, default=1.5, metavar="HOURS",
+    bat.add_argument("--robot-charge-time", type=HOURS, default=1.5, metavar="HOURS",
                      help="time on the dock from empty to full (default 1.5)")
-    bat.add_argument("--laptop-battery", type=_percent, default=100.0, metavar="PERCENT",
+    bat.add_argument("--laptop-battery", type=PERCENT, default=100.0, metavar="PERCENT",
                      help="laptop battery at the start (default 100)")
-    bat.add_argument("--laptop-battery-low", type=_percent, default=20.0, metavar="PERCENT",
+    bat.add_argument("--laptop-battery-low", type=PERCENT, default=20.0, metavar="PERCENT",
                      help="laptop low threshold (default 20)")
-    bat.add_argument("--laptop-runtime", type=_positive, default=2.5, metavar="HOURS",
+    bat.add_argument("--laptop-runtime", type=HOURS, default=2.5, metavar="HOURS",
                      help="laptop time on battery (default 2.5)")
     bat.add_argument("--laptop-plugged", action="store_true", help="the laptop is on mains power")
     dock = p.add_argument_group("docking")
     dock.add_argument("--no-station", action="store_true", help="ignore the station pose in POSES_FILE")
-    dock.add_argument("--dock-distance", type=_positive, default=1.0, metavar="METRES",
-                      help="distance from the station pose to the dock ahead of it (default 1.0)")
+    dock.add_argument("--dock-distance", type=DOCK_DISTANCE, default=1.0, metavar="METRES",
+                      help=f"distance from the station pose to the dock ahead of it (default 1.0; "
+                           f"{DOCK_DISTANCE.describe()})")
     dock.add_argument("--resume-after-charging", action="store_true",
                       help="undock and patrol on when charged, instead of shutting down")
     sim = p.add_argument_group("simulation")
-    sim.add_argument("--seed", type=int, default=0, help="random seed for sensor noise (default 0)")
-    sim.add_argument("--odom-noise", type=float, default=0.0, metavar="FRACTION",
-                     help="relative odometry noise per step, e.g. 0.02 (default 0)")
+    sim.add_argument("--seed", type=SEED, default=0,
+                     help=f"random seed for sensor noise (default 0; {SEED.describe()})")
+    sim.add_argument("--odom-noise", type=ODOM_NOISE, default=0.0, metavar="FRACTION",
+                     help=f"relative odometry noise per step, e.g. 0.02 (default 0; {ODOM_NOISE.describe()})")
     sim.add_argument("--localization", choices=LOCALIZATION_MODES, default="exact",
                      help="pose the navigation drives on: exact (the true pose, default), amcl (a particle filter "
                           "matching laser scans to the map), odometry (dead reckoning alone)")
-    sim.add_argument("--dt", type=_positive, default=0.1, metavar="SECONDS", help="time step (default 0.1)")
+    sim.add_argument("--dt", type=TIME_STEP, default=0.1, metavar="SECONDS",
+                     help=f"time step (default 0.1; {TIME_STEP.describe()})")
     sim.add_argument("--realtime", action="store_true", help="run at wall-clock speed instead of flat out")
-    sim.add_argument("--margin", type=float, default=0.10, metavar="METRES",
-                     help="obstacle inflation beyond the robot radius for planning (default 0.10)")
+    sim.add_argument("--margin", type=MARGIN, default=0.10, metavar="METRES",
+                     help=f"obstacle inflation beyond the robot radius for planning (default 0.10; "
+                          f"{MARGIN.describe()})")
     out = p.add_argument_group("output")
     out.add_argument("--events", metavar="FILE", help="write every event as JSON Lines")
     out.add_argument("--render", metavar="PATH",
@@ -158,56 +167,58 @@ def _config(args: argparse.Namespace) -> SimConfig:
         record_every=1 if args.render else 0, localization=args.localization)
 
 
-class StartupSigint:
-    """Ctrl-C before the patrol runs (loading the map, setting up the planner) is remembered, not fatal.
+def _error(message: object) -> None:
+    """One error line on stderr, control characters shown escaped so that nothing can split it."""
+    print(f"{PROG}: error: {printable(message, limit=2000)}", file=sys.stderr)
+
+
+class StartupSigint(StopSignals):
+    """Ctrl-C or SIGTERM before the patrol runs (loading the map, setting up the planner) is remembered, not
+    fatal.
 
     The patrol then starts preempted and goes straight to SHUTDOWN, so the summary and the events file
-    are written as for a Ctrl-C later on; a second Ctrl-C gives up at once (KeyboardInterrupt).
+    are written as for a Ctrl-C later on; a second signal gives up at once (KeyboardInterrupt).
     """
-
-    def __init__(self) -> None:
-        self.count = 0
-        self._previous: Any = None
-
-    def __enter__(self) -> StartupSigint:
-        if threading.current_thread() is threading.main_thread():
-            self._previous = signal.signal(signal.SIGINT, self._handle)
-        return self
-
-    def _handle(self, _signum: int, _frame: FrameType | None) -> None:
-        self.count += 1
-        if self.count > 1:
-            raise KeyboardInterrupt
-
-    def __exit__(self, *_exc: object) -> None:
-        if self._previous is not None:
-            signal.signal(signal.SIGINT, self._previous)
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    parser = build_parser()
-    args = parser.parse_args(argv)
     try:
-        with StartupSigint() as early:
+        with StartupSigint() as early:  # from the first moment: a Ctrl-C while parsing counts too
+            parser = build_parser()
+            args = parser.parse_args(argv)
+            check_limit_settings()
             return _run(parser, args, early)
     except KeyboardInterrupt:
         print(f"{PROG}: interrupted twice, stopped without shutting down cleanly", file=sys.stderr)
         return 130
+    except (InputError, OutputError) as exc:  # from anywhere: a reader, a limit, a writer
+        _error(exc)
+        return 2
+
+
+def _make_parent_folders(*paths: str | None) -> None:
+    """An output's missing parent folders are made, as objrec-detect does; a path that cannot have them
+    (under a regular file, in a read-only place) is an OutputError naming the output."""
+    for path in paths:
+        if not path:
+            continue
+        try:
+            Path(path).parent.mkdir(parents=True, exist_ok=True)
+        except OSError as exc:
+            raise OutputError(path, f"cannot be written: folder {Path(path).parent}: {exc.strerror or exc}") from None
 
 
 def _run(parser: argparse.ArgumentParser, args: argparse.Namespace, early: StartupSigint | None = None) -> int:
     logging.basicConfig(level=logging.WARNING - 10 * min(args.verbose, 2), stream=sys.stderr,
                         format="%(levelname)s %(name)s: %(message)s")
-    if args.laps is not None and args.laps < 1:
-        parser.error(f"--laps must be at least 1, got {args.laps}")
     for option, value, kinds in (("--render", args.render, STILL + ANIMATED),):
         if value and Path(value).suffix.lower() not in kinds:
-            parser.error(f"{option} {value}: the extension must be one of {', '.join(kinds)}")
+            parser.error(f"{option} {printable(value)}: the extension must be one of {', '.join(kinds)}")
     try:
         occ_map = load_map(args.map)
         pose_file = load_poses(args.poses)
     except (MapError, PoseFileError) as exc:
-        print(f"{PROG}: error: {exc}", file=sys.stderr)
+        _error(exc)
         return 2
 
     station_pose = None if args.no_station else pose_file.station
@@ -220,14 +231,15 @@ def _run(parser: argparse.ArgumentParser, args: argparse.Namespace, early: Start
     try:
         sim = Simulation(occ_map, start, config, station=station)
     except StartPoseError as exc:
-        print(f"{PROG}: error: {exc}", file=sys.stderr)
+        _error(exc)
         return 2
     for i, goal in enumerate(pose_file.goals):
         if sim.field.collides(goal.x, goal.y, config.robot.radius):
             log.warning("goal POSE_%d (%.2f, %.2f) is off the map or in an obstacle; it will be aborted",
                         i, goal.x, goal.y)
     if args.resume_after_charging and args.laps is None and args.time_limit is None and not args.realtime:
-        log.warning("--resume-after-charging without --laps or --time-limit runs until Ctrl-C")
+        log.warning("--resume-after-charging without --laps or --time-limit runs until Ctrl-C or %s steps",
+                    f"{MAX_STEPS:,}")
 
     machine = PatrolMachine(sim, pose_file.goals, station_pose, max_laps=args.laps,
                             resume_after_charging=args.resume_after_charging)
@@ -236,9 +248,10 @@ def _run(parser: argparse.ArgumentParser, args: argparse.Namespace, early: Start
         try:
             recorder = open_patrol_rerun(args.rerun, sim, pose_file.goals, station_pose)
         except RerunUnavailable as exc:
-            print(f"{PROG}: error: {exc}", file=sys.stderr)
+            _error(exc)
             return 2
     try:
+        _make_parent_folders(args.diagram, args.events, args.render)
         if args.diagram:
             n = len(pose_file.goals)
             write_diagram(args.diagram, n)
@@ -247,13 +260,13 @@ def _run(parser: argparse.ArgumentParser, args: argparse.Namespace, early: Start
             sim.events.open(args.events)
         sim.events.keep = False  # the command streams events; holding hours of them in memory helps nobody
         if early is not None and early.count:
-            machine.request_preempt("SIGINT")  # Ctrl-C came during start-up
+            machine.request_preempt(early.reason)  # Ctrl-C or SIGTERM came during start-up
         states: list[tuple[float, str]] = []
         if args.render:
             machine.state_listeners.append(lambda m: states.append((sim.clock.now, m.entering)))
         summary = run_patrol(machine, time_limit=args.time_limit, realtime=args.realtime)
     except OSError as exc:
-        print(f"{PROG}: error: {exc}", file=sys.stderr)
+        _error(exc)
         return 2
     finally:
         sim.events.close()
@@ -272,7 +285,7 @@ def _run(parser: argparse.ArgumentParser, args: argparse.Namespace, early: Start
         try:
             save_render(args.render, picture)
         except (OSError, ValueError) as exc:
-            print(f"{PROG}: error: {exc}", file=sys.stderr)
+            _error(exc)
             return 2
     return 0
 

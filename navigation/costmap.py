@@ -15,6 +15,19 @@ import numpy as np
 from .maps import OccupancyMap
 
 
+def shared_list(values: np.ndarray) -> list[float]:
+    """``values.ravel().tolist()``, but equal values share one Python object.
+
+    The planner and the clearance look-ups keep per-cell lists for speed; ``tolist`` makes a new float per
+    cell (32 bytes), while a map holds few distinct distances and costs: shared, a cell costs the 8 bytes of
+    its reference, which keeps a huge map's planner within memory.
+    """
+    unique, inverse = np.unique(values.ravel(), return_inverse=True)
+    objects = np.empty(len(unique), dtype=object)
+    objects[:] = unique.tolist()
+    return objects[inverse.ravel()].tolist()  # type: ignore[no-any-return]
+
+
 class ObstacleField:
     """Obstacle cells of a map and, for every cell, the distance to the nearest one.
 
@@ -37,7 +50,7 @@ class ObstacleField:
         self.dist = cv2.distanceTransform(free, cv2.DIST_L2, cv2.DIST_MASK_PRECISE).astype(np.float64)
         self.dist *= self.resolution
         self.height, self.width = padded.shape
-        self._dist_list = self.dist.ravel().tolist()
+        self._dist_list = shared_list(self.dist)
         # A centre more than this far (in metres) from every obstacle centre is clear of any robot of
         # radius r when dist - slack >= r: the robot's offset in its cell plus an obstacle's half-diagonal.
         self._slack = self.resolution * math.sqrt(2.0)

@@ -14,6 +14,8 @@ from collections.abc import Iterable
 from pathlib import Path
 from typing import Any
 
+from strictio import write_atomically
+
 from .patrol import OUTCOME, SEP, SHUTDOWN, PatrolMachine, patrol_states, patrol_transitions
 
 INDENT = "    "
@@ -97,13 +99,14 @@ def mermaid(machine: int | PatrolMachine, active: Iterable[str] = ()) -> str:
 def write_diagram(path: str | Path, machine: int | PatrolMachine, active: Iterable[str] = ()) -> Path:
     """Write the diagram; a ``.md`` file gets a fenced mermaid block, anything else the bare text.
 
-    The file is replaced atomically, so a viewer polling it never reads half a diagram.
+    The file is replaced atomically, so a viewer polling it never reads half a diagram; what must not be
+    replaced (a device, a FIFO, a read-only file), a missing folder and every write failure are a
+    ``strictio.OutputError``. It is rewritten at every state change, so it is not synced to the disk
+    each time (a lost diagram is drawn again by the next change).
     """
     path = Path(path)
     text = mermaid(machine, active)
     if path.suffix.lower() == ".md":
         text = "```mermaid\n" + text + "```\n"
-    tmp = path.with_name(path.name + ".tmp")
-    tmp.write_text(text, encoding="utf-8")
-    tmp.replace(path)
+    write_atomically(path, text, durable=False)
     return path

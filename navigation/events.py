@@ -11,7 +11,9 @@ import json
 import logging
 from collections.abc import Callable
 from pathlib import Path
-from typing import IO, Any
+from typing import Any
+
+from strictio.atomic import LineOutput
 
 log = logging.getLogger(__name__)
 
@@ -27,20 +29,23 @@ class EventLog:
         self.keep = keep
         self.events: list[Event] = []
         self._listeners: list[Listener] = []
-        self._stream: IO[str] | None = None
+        self._stream: LineOutput | None = None
 
     def open(self, path: str | Path) -> None:
         """Stream every following event to ``path`` as one JSON object per line.
 
-        Line-buffered, so someone tailing the file during a real-time run sees each event as it happens.
+        Each line is written as it is emitted, so someone tailing the file during a real-time run sees each
+        event as it happens; a write failure (a full disk) raises ``strictio.OutputError`` from ``emit``,
+        the file keeping the whole lines before it, and the run's later events are kept in memory only.
         """
-        # Held open for the whole run and closed by close(), so no context manager here.
-        self._stream = Path(path).open("w", encoding="utf-8", buffering=1)  # noqa: SIM115
+        self._stream = LineOutput.create(path)
 
     def close(self) -> None:
-        if self._stream is not None:
-            self._stream.close()
-            self._stream = None
+        """Close the events file; OutputError if its last bytes cannot be written (not a second time for a
+        failure ``emit`` already raised)."""
+        stream, self._stream = self._stream, None
+        if stream is not None:
+            stream.close()
 
     def subscribe(self, listener: Listener) -> Callable[[], None]:
         """Add a listener; returns the function that removes it again."""
@@ -57,7 +62,14 @@ class EventLog:
         if self.keep:
             self.events.append(event)
         if self._stream is not None:
-            self._stream.write(json.dumps(event) + "\n")
+            stream = self._stream
+            try:
+                stream.write(json.dumps(event) + "\n")
+            except BaseException:
+                if stream.failed is not None:  # the file is done for; the run's end must not fail on it again
+                    self._stream = None
+                    stream.close()
+                raise
         log.debug("event %s", event)
         for listener in list(self._listeners):
             listener(event)

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import logging
 import math
+import sys
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -18,7 +19,9 @@ import cv2
 import numpy as np
 import yaml
 
-from strictio import InputError, YAMLLimits, read_text, yaml_text
+from strictio import MAP_CELLS, InputError, YAMLLimits, read_text, yaml_text
+from strictio.image_size import UNKNOWN_FORMAT, image_size, read_image_file, truncation
+from strictio.limits import check
 
 from .geometry import Pose2D
 
@@ -30,6 +33,12 @@ UNKNOWN = -1
 MODES = ("trinary", "scale", "raw")
 #: A map YAML is a few lines; a megabyte leaves room for comments and never for a bomb.
 MAP_YAML_LIMITS = YAMLLimits(max_bytes=1024 * 1024, max_depth=8)
+#: Sane bounds of the numbers in a map YAML: a cell of up to a kilometre, an origin within a thousand
+#: kilometres, a yaw within a few turns. Beyond them a value is a typo or an attack, and the arithmetic of
+#: every conversion would lose its precision.
+MAX_RESOLUTION = 1000.0
+MAX_COORDINATE = 1e6
+MAX_YAW = 100.0
 
 
 class MapError(ValueError):
@@ -138,22 +147,85 @@ def _number(path: Path, lines: dict[str, int], raw: dict[str, Any], key: str, de
         if default is None:
             raise MapError(f"{path}: required field '{key}' is missing")
         return default
-    value = raw[key]
-    if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
-        raise MapError(f"{_where(path, lines, key)}: expected a number, got {value!r}")
-    return float(value)
+    value = finite_number(raw[key])
+    if value is None:
+        raise MapError(f"{_where(path, lines, key)}: expected a number, got {shown_value(raw[key])}")
+    return value
+
+
+def finite_number(value: Any) -> float | None:
+    """A YAML number as a finite float, or None (not a number, NaN, infinite, or an integer past float)."""
+    if isinstance(value, bool) or not isinstance(value, int | float):
+        return None
+    try:
+        number = float(value)
+    except OverflowError:
+        return None
+    return number if math.isfinite(number) else None
+
+
+def shown_value(value: Any) -> str:
+    """A value for an error line: its repr, shortened (a 4,000-digit number stays one readable line)."""
+    text = repr(value)
+    return text if len(text) <= 60 else f"{text[:40]}... ({len(text):,} characters)"
+
+
+def _bounded(path: Path, lines: dict[str, int], key: str, value: float, low: float, high: float,
+             what: str) -> float:
+    if not low <= value <= high:
+        raise MapError(f"{_where(path, lines, key)}: {what}, got {value!r}")
+    return value
+
+
+def find_long_integer(text: str) -> tuple[str, int, int] | None:
+    """Where a YAML text holds an integer too long for Python to convert (the strict reader only says that
+    one does): its key path, line and digits. Call only after the strict reader composed the text (it
+    refuses aliases and deep nesting first); composing converts nothing."""
+    try:
+        root = yaml.compose(text, Loader=yaml.SafeLoader)
+    except yaml.YAMLError:
+        return None
+    limit = sys.get_int_max_str_digits()
+    stack: list[tuple[yaml.Node, str]] = [(root, "")] if root is not None and limit else []
+    while stack:  # depth first, in document order
+        node, where = stack.pop()
+        if isinstance(node, yaml.MappingNode):
+            stack += reversed([(v, f"{where}.{k.value}" if where else str(k.value)) for k, v in node.value])
+        elif isinstance(node, yaml.SequenceNode):
+            stack += reversed([(value, f"{where}[{i}]") for i, value in enumerate(node.value)])
+        elif isinstance(node, yaml.ScalarNode) and node.tag.endswith(":int"):
+            digits = sum(c.isdigit() for c in node.value)
+            if digits > limit:
+                return where, node.start_mark.line + 1, digits
+    return None
+
+
+def long_integer_message(text: str, exc: InputError) -> str:
+    """The strict reader's refusal of a too-long integer, with the field and line where it is."""
+    found = find_long_integer(text) if "digits" in exc.message and not exc.where else None
+    if found is None:
+        return str(exc)
+    where, line, digits = found
+    return f"{exc.path}: line {line}: field '{where}': an integer of {digits:,} digits is not a usable number"
 
 
 def load_map_metadata(yaml_path: str | Path) -> MapMetadata:
     """Read and validate a map YAML file (not the image); ``image`` is resolved against the YAML's folder."""
-    path = Path(yaml_path)
+    return _load_metadata(Path(yaml_path))[0]
+
+
+def _load_metadata(path: Path) -> tuple[MapMetadata, dict[str, int]]:
+    """The validated metadata and the line of each top-level key (for messages about the image)."""
     try:
         text = read_text(path, MAP_YAML_LIMITS.max_bytes)
-        raw = yaml_text(text, path, MAP_YAML_LIMITS)
     except InputError as exc:
         if exc.message == "file not found":
             raise MapError(f"{path}: map file not found") from None
         raise MapError(str(exc)) from None
+    try:
+        raw = yaml_text(text, path, MAP_YAML_LIMITS)
+    except InputError as exc:
+        raise MapError(long_integer_message(text, exc)) from None
     if not isinstance(raw, dict):
         raise MapError(f"{path}: expected a YAML mapping of map fields, got {type(raw).__name__}")
     lines = _key_lines(text)
@@ -162,7 +234,7 @@ def load_map_metadata(yaml_path: str | Path) -> MapMetadata:
     if "image" not in raw:
         raise MapError(f"{path}: required field 'image' is missing")
     if not isinstance(image, str) or not image.strip():
-        raise MapError(f"{_where(path, lines, 'image')}: expected an image file name, got {image!r}")
+        raise MapError(f"{_where(path, lines, 'image')}: expected an image file name, got {shown_value(image)}")
     image_path = Path(image)
     if not image_path.is_absolute():
         image_path = path.parent / image_path
@@ -170,18 +242,24 @@ def load_map_metadata(yaml_path: str | Path) -> MapMetadata:
     resolution = _number(path, lines, raw, "resolution", None)
     if resolution <= 0.0:
         raise MapError(f"{_where(path, lines, 'resolution')}: must be positive, got {resolution!r}")
+    _bounded(path, lines, "resolution", resolution, 0.0, MAX_RESOLUTION,
+             f"must be at most {MAX_RESOLUTION:g} m per cell")
 
     if "origin" not in raw:
         raise MapError(f"{path}: required field 'origin' is missing")
     origin = raw["origin"]
-    if (not isinstance(origin, list) or len(origin) != 3
-            or not all(isinstance(v, int | float) and not isinstance(v, bool) and math.isfinite(v)
-                       for v in origin)):
-        raise MapError(f"{_where(path, lines, 'origin')}: expected [x, y, yaw] numbers, got {origin!r}")
+    values = [finite_number(v) for v in origin] if isinstance(origin, list) else []
+    numbers = [v for v in values if v is not None]
+    if len(values) != 3 or len(numbers) != 3:
+        raise MapError(f"{_where(path, lines, 'origin')}: expected [x, y, yaw] numbers, got {shown_value(origin)}")
+    x, y, yaw = numbers
+    for value, bound, what in ((x, MAX_COORDINATE, "x"), (y, MAX_COORDINATE, "y"), (yaw, MAX_YAW, "yaw")):
+        unit = "rad" if what == "yaw" else "m"
+        _bounded(path, lines, "origin", value, -bound, bound, f"{what} must lie within ±{bound:g} {unit}")
 
     negate = raw.get("negate", 0)
     if negate not in (0, 1) and not isinstance(negate, bool):
-        raise MapError(f"{_where(path, lines, 'negate')}: expected 0 or 1, got {negate!r}")
+        raise MapError(f"{_where(path, lines, 'negate')}: expected 0 or 1, got {shown_value(negate)}")
     occupied = _number(path, lines, raw, "occupied_thresh", 0.65)
     free = _number(path, lines, raw, "free_thresh", 0.196)
     for key, value in (("occupied_thresh", occupied), ("free_thresh", free)):
@@ -191,44 +269,66 @@ def load_map_metadata(yaml_path: str | Path) -> MapMetadata:
         raise MapError(f"{_where(path, lines, 'free_thresh')}: {free!r} is above occupied_thresh {occupied!r}")
     mode = raw.get("mode", "trinary")
     if not isinstance(mode, str) or mode.lower() not in MODES:
-        raise MapError(f"{_where(path, lines, 'mode')}: expected one of {', '.join(MODES)}, got {mode!r}")
-    return MapMetadata(
+        raise MapError(f"{_where(path, lines, 'mode')}: expected one of {', '.join(MODES)}, got {shown_value(mode)}")
+    meta = MapMetadata(
         image=image_path,
         resolution=resolution,
-        origin=Pose2D(float(origin[0]), float(origin[1]), float(origin[2])),
+        origin=Pose2D(x, y, yaw),
         negate=bool(negate),
         occupied_thresh=occupied,
         free_thresh=free,
         mode=mode.lower(),
     )
+    return meta, lines
 
 
-def _read_image(path: Path, yaml_path: Path) -> np.ndarray:
-    where = _where(yaml_path, _key_lines(read_text(yaml_path, MAP_YAML_LIMITS.max_bytes)), "image")
-    if not path.is_file():
-        raise MapError(f"{where}: image file {path} not found")
-    pixels = cv2.imread(str(path), cv2.IMREAD_UNCHANGED)
+def decode_image(data: bytes, name: Path, flags: int) -> np.ndarray:
+    """Decode image bytes whose header was checked, refusing a JPEG or PNG cut short (their decoders would
+    return it partly grey and say so on stderr) and turning OpenCV's own refusal into an InputError."""
+    cut = truncation(data)
+    if cut is not None:
+        raise InputError(name, cut)
+    level = cv2.utils.logging.getLogLevel()
+    cv2.utils.logging.setLogLevel(cv2.utils.logging.LOG_LEVEL_SILENT)  # the refusal is reported once, here
+    try:
+        pixels = cv2.imdecode(np.frombuffer(data, dtype=np.uint8), flags)
+    except cv2.error as exc:
+        reason = " ".join(str(exc).split()).split(" error: ", 1)[-1][:200]
+        raise InputError(name, f"OpenCV refuses to decode it: {reason}") from None
+    finally:
+        cv2.utils.logging.setLogLevel(level)
     if pixels is None or pixels.size == 0:
-        raise MapError(f"{where}: cannot decode {path} as a PGM, PNG or BMP image")
+        raise InputError(name, "cannot be decoded as an image")
     return pixels
 
 
-def _pnm_maxval(path: Path) -> int | None:
-    """The maximum value declared in a PGM/PPM header; OpenCV returns raw samples without scaling them."""
+def _read_image(path: Path, where: str) -> tuple[np.ndarray, bytes]:
+    """The map's pixels and the file's bytes; the cells are counted from the header before decoding."""
     try:
-        with path.open("rb") as f:
-            head = f.read(512)
-    except OSError:
-        return None
+        size = image_size(path)
+        if size is not None:
+            check(path, MAP_CELLS, size[0] * size[1], f"map of {size[0]}x{size[1]} cells")
+        data, _size = read_image_file(path)
+        return decode_image(data, path, cv2.IMREAD_UNCHANGED), data
+    except InputError as exc:
+        if exc.message == "file not found":
+            raise MapError(f"{where}: image file {path} not found") from None
+        if exc.message in (UNKNOWN_FORMAT, "cannot be decoded as an image"):
+            raise MapError(f"{where}: cannot decode {path} as a PGM, PNG or BMP image ({exc.message})") from None
+        raise MapError(f"{where}: {exc}") from None
+
+
+def _pnm_maxval(head: bytes) -> int | None:
+    """The maximum value declared in a PGM/PPM header; OpenCV returns raw samples without scaling them."""
     if head[:2] not in (b"P2", b"P3", b"P5", b"P6"):
         return None
     tokens: list[bytes] = []
-    for line in head.split(b"\n"):
+    for line in head[:512].split(b"\n"):
         tokens += line.split(b"#", 1)[0].split()
         if len(tokens) >= 4:
             break
     try:
-        return int(tokens[3])
+        return int(tokens[3]) if len(tokens[3]) <= 10 else None
     except (IndexError, ValueError):
         return None
 
@@ -280,9 +380,9 @@ def occupancy_from_pixels(pixels: np.ndarray, meta: MapMetadata, max_value: floa
 def load_map(yaml_path: str | Path) -> OccupancyMap:
     """Load a map_server map; raises :class:`MapError` with file, field and value on bad input."""
     path = Path(yaml_path)
-    meta = load_map_metadata(path)
-    pixels = _read_image(meta.image, path)
-    grid = occupancy_from_pixels(pixels, meta, _pnm_maxval(meta.image))[::-1]
+    meta, lines = _load_metadata(path)
+    pixels, data = _read_image(meta.image, _where(path, lines, "image"))
+    grid = occupancy_from_pixels(pixels, meta, _pnm_maxval(data))[::-1]
     log.info("loaded map %s: %dx%d cells at %.3f m", path, grid.shape[1], grid.shape[0], meta.resolution)
     return OccupancyMap(np.ascontiguousarray(grid), meta.resolution, meta.origin, source=path)
 

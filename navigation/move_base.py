@@ -24,6 +24,7 @@ import enum
 import itertools
 import logging
 import math
+from collections import deque
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 
@@ -41,6 +42,8 @@ from .planner import Plan, Planner
 log = logging.getLogger(__name__)
 
 RECOVERY_BEHAVIOURS = ("clear_costmap", "rotate", "back_up")
+#: Plans kept for inspection: a patrol of hours makes hundreds of thousands, and each holds its path.
+KEPT_PLANS = 100
 
 # Plan failures no recovery behaviour can help with: the goal is aborted at once.
 _HOPELESS = ("goal is in an obstacle", "goal is outside", "start is outside")
@@ -152,7 +155,7 @@ class MoveBase:
         self.goal: _Goal | None = None
         self.follower: PathFollower | None = None
         self.last_plan: Plan | None = None
-        self.plans: list[Plan] = []
+        self.plans: deque[Plan] = deque(maxlen=KEPT_PLANS)  # the latest, for a look after a run
         self._recoveries = 0
         self._next_behaviour = 0
         self._behaviour: _Behaviour | None = None

@@ -4,7 +4,10 @@ Like move_base's global planner, obstacles are inflated by the robot's radius pl
 and cells near that zone cost more, so paths keep to the middle of corridors instead of grazing walls.
 Everything that depends only on the map (distance field, costs, connected regions, allowed moves and,
 on big maps, landmark distances for the ALT heuristic) is computed once, which keeps a plan across the
-Willow Garage map well under 100 ms in plain Python.
+Willow Garage map well under 100 ms in plain Python. Per-cell tables share their values' objects and the
+landmarks are budgeted by map size, so a huge map costs tens of bytes and a few microseconds a cell to set up,
+and a search that cannot finish within ``max_expansions`` ends as a failed plan: planning ends in bounded time
+whatever the map.
 """
 
 from __future__ import annotations
@@ -18,7 +21,7 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from .costmap import ObstacleField
+from .costmap import ObstacleField, shared_list
 from .geometry import Pose2D
 
 log = logging.getLogger(__name__)
@@ -50,6 +53,12 @@ class PlannerParams:
     # Only worth its set-up time (about 0.1 s per landmark on Willow) on maps with big free regions.
     landmarks: int = 6
     landmark_min_cells: int = 40_000
+    # Landmarks x map cells at most: each landmark is a search over its region and a table over the map, so
+    # a huge map gets fewer (none beyond half this many cells) and its set-up stays within a few seconds.
+    landmark_budget: int = 3_000_000
+    # A search that expands this many cells without reaching the goal gives up (a failed plan, not a hang);
+    # a plan across Willow expands about a thousand.
+    max_expansions: int = 1_000_000
 
 
 @dataclass
@@ -83,17 +92,18 @@ class Planner:
         self.lethal = lethal
         cost = 1.0 + p.cost_scale * np.exp(-(self.clear - self.inflation) / max(p.cost_decay, 1e-6))
         cost[lethal] = INF
-        self._cost = cost.ravel().tolist()
-        self._clear = self.clear.ravel().tolist()
+        self._cost = shared_list(cost)  # the search's hot tables are lists; the rest stay arrays
+        del cost
+        self._clear = self.clear.ravel()
         # Diagonal moves never cut a lethal corner, so 4-connected regions are exactly the reachable sets.
         _, labels = cv2.connectedComponents((~lethal).astype(np.uint8), connectivity=4)
         self.labels = labels
-        self._labels = labels.ravel().tolist()
+        self._labels = labels.ravel()
         self._gscore = [INF] * len(self._cost)
         self._build_moves(~lethal)
-        w = field.width
-        flat = np.arange(field.width * field.height)
-        self._col, self._row = (flat % w).tolist(), (flat // w).tolist()
+        w, h = field.width, field.height
+        self._col = list(range(w)) * h  # one int object per column and per row, shared by every cell
+        self._row = [j for j in range(h) for _ in range(w)]
         self._landmarks = self._build_landmarks()
 
     def _dijkstra(self, source: int) -> list[float]:
@@ -121,7 +131,11 @@ class Planner:
         p = self.params
         counts = np.bincount(self.labels.ravel())
         counts[0] = 0
-        if p.landmarks <= 0 or counts.max() < p.landmark_min_cells:
+        wanted = min(p.landmarks, p.landmark_budget // max(1, self.labels.size))
+        if wanted < 2 or counts.max() < p.landmark_min_cells:
+            if p.landmarks > 0 and wanted < 2 and counts.max() >= p.landmark_min_cells:
+                log.info("%d cells: too big a map for landmarks (budget %d); plain A*", self.labels.size,
+                         p.landmark_budget)
             return []
         t0 = time.perf_counter()
         region = self.labels.ravel() == counts.argmax()
@@ -131,7 +145,7 @@ class Planner:
         nearest = np.full(len(cells), np.inf)
         nearest_idx = int(np.argmax(np.hypot(cols - cols.mean(), rows - rows.mean())))
         landmarks = []
-        for _ in range(p.landmarks):
+        for _ in range(wanted):
             dist = self._dijkstra(int(cells[nearest_idx]))
             landmarks.append(dist)
             nearest = np.minimum(nearest, np.asarray(dist)[cells])
@@ -217,7 +231,8 @@ class Planner:
 
     # -- search -------------------------------------------------------------------------------------
     def _astar(self, start: int, goal: int) -> tuple[list[int] | None, int]:
-        """8-connected A* with the octile heuristic; diagonal steps may not clip a lethal corner.
+        """8-connected A* with the octile heuristic; diagonal steps may not clip a lethal corner. None after
+        ``max_expansions`` cells without reaching the goal.
 
         Written with flat lists, precomputed moves and local names: this loop is where planning time goes.
         """
@@ -234,6 +249,7 @@ class Planner:
         k_diag = SQRT2 - 2.0
         alt = [(lm, lm[goal]) for lm in self._landmarks if lm[goal] < INF and lm[start] < INF]
         expansions = 0
+        budget = self.params.max_expansions
         try:
             while heap:
                 u = pop(heap)[1]
@@ -246,6 +262,8 @@ class Planner:
                     return path[::-1], expansions
                 closed[u] = 1
                 expansions += 1
+                if expansions > budget:
+                    return None, expansions
                 gu, cu = gscore[u], cost[u]
                 for d, factor in moves[mask[u]]:
                     v = u + d
@@ -331,7 +349,7 @@ class Planner:
         g = self._index(goal.x, goal.y)
         if g is None:
             return fail("goal is outside the map")
-        label = self._labels[escape[-1]]
+        label = int(self._labels[escape[-1]])
         g_cell = self._goal_cell(g, goal.x, goal.y, goal_tolerance, label)
         if g_cell is None:
             if self._goal_cell(g, goal.x, goal.y, goal_tolerance, None) is None:
@@ -339,6 +357,8 @@ class Planner:
             return fail("no path: the goal lies in a region the start cannot reach")
         cells, expansions = self._astar(escape[-1], g_cell)
         if cells is None:
+            if expansions > self.params.max_expansions:
+                return fail(f"no path found within {self.params.max_expansions} expanded cells", expansions)
             return fail("no path", expansions)
         cells = escape[:-1] + cells
         if self.params.smooth:

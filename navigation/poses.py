@@ -11,9 +11,11 @@ import math
 from dataclasses import dataclass
 from pathlib import Path
 
-from strictio import InputError, read_text
+from strictio import POSES, InputError, read_text
+from strictio.limits import check
 
 from .geometry import Pose2D, quaternion_from_yaw, yaw_from_quaternion
+from .maps import MAX_COORDINATE
 
 #: A pose file holds one line per goal: 4 MiB is tens of thousands of goals.
 POSE_FILE_LIMIT = 4 * 1024 * 1024
@@ -42,12 +44,15 @@ def _parse_pose(path: Path, lineno: int, text: str) -> Pose2D:
             f"(x, y, z, qx, qy, qz, qw), got {len(fields)} in {text!r}")
     values = []
     for name, raw in zip(("x", "y", "z", "qx", "qy", "qz", "qw"), fields, strict=True):
+        shown = repr(raw) if len(raw) <= 40 else f"{raw[:30]!r}... ({len(raw):,} characters)"
         try:
             value = float(raw)
         except ValueError:
-            raise PoseFileError(f"{path}: line {lineno}: {name} is not a number: {raw!r}") from None
+            raise PoseFileError(f"{path}: line {lineno}: {name} is not a number: {shown}") from None
         if not math.isfinite(value):
-            raise PoseFileError(f"{path}: line {lineno}: {name} is not finite: {raw!r}")
+            raise PoseFileError(f"{path}: line {lineno}: {name} is not finite: {shown}")
+        if abs(value) > MAX_COORDINATE:
+            raise PoseFileError(f"{path}: line {lineno}: {name} must lie within ±{MAX_COORDINATE:g}, got {shown}")
         values.append(value)
     x, y, _z, qx, qy, qz, qw = values
     norm = math.sqrt(qx * qx + qy * qy + qz * qz + qw * qw)
@@ -57,15 +62,20 @@ def _parse_pose(path: Path, lineno: int, text: str) -> Pose2D:
 
 
 def parse_poses(text: str, path: Path | str = "<poses>") -> PoseFile:
-    """Parse the text of a pose file; ``path`` only names the file in error messages."""
+    """Parse the text of a pose file; ``path`` only names the file in error messages. Every number must be
+    finite and within ±MAX_COORDINATE (a typo such as 1e308 would make the planner's arithmetic overflow);
+    more goals than ``OBJREC_MAX_POSES`` allows are refused before any is parsed."""
     path = Path(path)
+    contents = [(n, c) for n, c in enumerate((line.split("#", 1)[0].strip() for line in text.splitlines()), 1) if c]
+    goal_count = sum(1 for _n, c in contents if not c.lower().startswith(STATION_KEY))
+    try:
+        check(path, POSES, goal_count, "goal poses")  # before any is parsed
+    except InputError as exc:
+        raise PoseFileError(str(exc)) from None
     goals: list[Pose2D] = []
     station: Pose2D | None = None
     station_line = 0
-    for lineno, line in enumerate(text.splitlines(), start=1):
-        content = line.split("#", 1)[0].strip()
-        if not content:
-            continue
+    for lineno, content in contents:
         if content.lower().startswith(STATION_KEY):
             if station_line:
                 raise PoseFileError(

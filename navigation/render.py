@@ -8,14 +8,20 @@ frame, so maps with a rotated origin come out as their image does.
 
 from __future__ import annotations
 
+import contextlib
 import logging
 import math
-from collections.abc import Sequence
+import os
+import sys
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
 import cv2
 import numpy as np
+
+from strictio import OutputError, write_atomically
+from strictio.atomic import check_replaceable, remove_stale_temporaries, temporary_path
 
 from .docking import DockingStation
 from .geometry import Pose2D
@@ -201,33 +207,102 @@ def render_frames(pic: RunPicture, max_side: int = 720, max_frames: int = 300) -
     return frames
 
 
-def save_render(path: str | Path, pic: RunPicture) -> Path:
-    """Write a picture or an animation, chosen by the file extension."""
-    path = Path(path)
-    ext = path.suffix.lower()
-    if ext in STILL:
-        if not cv2.imwrite(str(path), render_still(pic)):
-            raise OSError(f"cannot write picture {path}")
-        return path
+def _encoded(ext: str, pic: RunPicture) -> bytes:
+    """A still picture or a GIF animation as the bytes of its file."""
     if ext == ".gif":
         frames = render_frames(pic, max_side=480, max_frames=150)
         anim = cv2.Animation()
         anim.frames = frames
         anim.durations = [80] * len(frames)
-        if not cv2.imwriteanimation(str(path), anim):
-            raise OSError(f"cannot write GIF animation {path}")
-        return path
-    if ext in VIDEO_CODECS:
-        frames = render_frames(pic)
-        h, w = frames[0].shape[:2]
-        h, w = h - h % 2, w - w % 2  # most codecs want even sizes
-        writer = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*VIDEO_CODECS[ext]), 15.0, (w, h))
-        if not writer.isOpened():
-            raise OSError(f"OpenCV cannot write {ext} video to {path}")
-        try:
+        ok, data = cv2.imencodeanimation(ext, anim)
+    else:
+        ok, data = cv2.imencode(ext, render_still(pic))
+    if not ok:
+        raise ValueError(f"OpenCV cannot encode a {ext} picture")
+    return np.asarray(data).tobytes()
+
+
+@contextlib.contextmanager
+def _quiet_video_warnings() -> Iterator[None]:
+    """OpenCV's FFmpeg writer warns on stderr at every frame it cannot write; the failure is reported once,
+    as an OutputError, instead."""
+    level = cv2.utils.logging.getLogLevel()
+    cv2.utils.logging.setLogLevel(min(level, cv2.utils.logging.LOG_LEVEL_ERROR))
+    try:
+        yield
+    finally:
+        cv2.utils.logging.setLogLevel(level)
+
+
+def _write_video(path: Path, ext: str, pic: RunPicture) -> None:
+    """Write the animation under a temporary name, check that every frame reads back, then rename it: OpenCV's
+    video writer reports no write error, so a full disk shows only as missing frames."""
+    frames = render_frames(pic)
+    h, w = frames[0].shape[:2]
+    h, w = h - h % 2, w - w % 2  # most codecs want even sizes
+    target = Path(os.path.realpath(path))
+    if not target.parent.is_dir():
+        raise OutputError(path, f"cannot save: folder {path.parent} does not exist")
+    check_replaceable(str(path), target)
+    remove_stale_temporaries(target.parent)
+    temporary = temporary_path(target, ext)  # the suffix chooses the container
+    try:
+        with _quiet_video_warnings():
+            writer = cv2.VideoWriter(str(temporary), cv2.VideoWriter_fourcc(*VIDEO_CODECS[ext]), 15.0, (w, h))
+            if not writer.isOpened():
+                raise OutputError(path, f"cannot save: OpenCV cannot write {ext} video here")
             for frame in frames:
                 writer.write(np.ascontiguousarray(frame[:h, :w]))
-        finally:
             writer.release()
+        readable = _readable_frames(temporary, len(frames))
+        if readable < len(frames):
+            raise OutputError(path, f"cannot save: only {readable} of {len(frames)} frames could be written "
+                                    "(a full disk or a file size limit?)")
+        os.replace(temporary, target)
+    except OutputError:
+        raise
+    except OSError as exc:
+        raise OutputError(path, f"cannot save: {exc.strerror or exc}") from None
+    finally:
+        with contextlib.suppress(OSError):
+            os.unlink(temporary)
+
+
+@contextlib.contextmanager
+def _stderr_silenced() -> Iterator[None]:
+    """Reading back a video that may be cut short makes FFmpeg print its complaints straight to file
+    descriptor 2; what matters is the count, reported in one line by the caller."""
+    sys.stderr.flush()
+    saved = os.dup(2)
+    try:
+        with open(os.devnull, "wb") as null:
+            os.dup2(null.fileno(), 2)
+        yield
+    finally:
+        os.dup2(saved, 2)
+        os.close(saved)
+
+
+def _readable_frames(path: Path, expected: int) -> int:
+    with _stderr_silenced():
+        capture = cv2.VideoCapture(str(path))
+        readable = 0
+        while readable < expected and capture.grab():
+            readable += 1
+        capture.release()
+    return readable
+
+
+def save_render(path: str | Path, pic: RunPicture) -> Path:
+    """Write a picture or an animation, chosen by the file extension; the file is replaced whole or not at
+    all. Any failure to write is a ``strictio.OutputError`` (a path that must not be replaced, such as a
+    device or a read-only file, included); an extension this cannot draw is a ValueError."""
+    path = Path(path)
+    ext = path.suffix.lower()
+    if ext not in STILL + ANIMATED:
+        raise ValueError(f"cannot render to {path}: use one of {', '.join(STILL + ANIMATED)}")
+    if ext in STILL or ext == ".gif":
+        write_atomically(path, _encoded(ext, pic))
         return path
-    raise ValueError(f"cannot render to {path}: use one of {', '.join(STILL + ANIMATED)}")
+    _write_video(path, ext, pic)
+    return path

@@ -31,6 +31,7 @@ from typing import Any
 import numpy as np
 
 from rerunio import VIEWER_PORT, import_rerun, open_stream
+from strictio import OutputError
 
 from .events import Event
 from .geometry import Pose2D
@@ -89,6 +90,9 @@ class PatrolRecorder:
 
     Make it after the simulation and before the run; it hooks itself onto the event bus and the clock.
     """
+
+    #: Where the recording goes, as the user named it (for error messages).
+    target = "the Rerun recording"
 
     def __init__(self, recording: Any, sim: Simulation, goals: Sequence[Pose2D] = (),
                  station_pose: Pose2D | None = None, *, pose_period: float = 0.2, scan_period: float = 1.0,
@@ -216,8 +220,11 @@ class PatrolRecorder:
             timer.cancel()
         self._set_time(self.sim.clock.now)
         self._sample()
-        self.recording.flush()
-        self.recording.disconnect()
+        try:
+            self.recording.flush()
+            self.recording.disconnect()
+        except Exception as exc:  # rerun reports a full disk or a lost viewer as a RuntimeError
+            raise OutputError(self.target, f"cannot be written: {exc}") from None
 
     def __enter__(self) -> PatrolRecorder:
         return self
@@ -237,4 +244,6 @@ def open_patrol_rerun(target: str | os.PathLike[str], sim: Simulation, goals: Se
     _check_periods(options.get("pose_period", 0.2), options.get("scan_period", 1.0))
     import_rerun()
     stream = open_stream(target, "objrec-patrol", patrol_blueprint(), port)
-    return PatrolRecorder(stream, sim, goals, station_pose, **options)
+    recorder = PatrolRecorder(stream, sim, goals, station_pose, **options)
+    recorder.target = str(target)
+    return recorder

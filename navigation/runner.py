@@ -1,7 +1,9 @@
-"""Run a patrol to its end: step the simulation, honour Ctrl-C and limits, optionally in real time.
+"""Run a patrol to its end: step the simulation, honour Ctrl-C, SIGTERM and limits, optionally in real time.
 
-Ctrl-C does not raise here; it asks the machine to preempt, which ends in SHUTDOWN like any other path,
-so the summary, the events file and the pictures are always written. A second Ctrl-C gives up at once.
+Ctrl-C and SIGTERM do not raise here; they ask the machine to preempt, which ends in SHUTDOWN like any other
+path, so the summary, the events file and the pictures are always written. A second one gives up at once.
+A run flat out (not in real time) also ends, preempted the same way, after :data:`MAX_STEPS` steps: whatever
+the time step, the batteries or the options, it never runs on unbounded.
 """
 
 from __future__ import annotations
@@ -20,6 +22,11 @@ log = logging.getLogger(__name__)
 
 # How long a preempted machine may take to reach SHUTDOWN (simulated seconds) before the run is cut.
 PREEMPT_GRACE = 60.0
+#: Steps a run flat out may take before it is preempted: at the default 0.1 s step, 27 simulated hours, more
+#: than the batteries last; at the smallest step the command allows (0.01 s) still the whole default patrol.
+MAX_STEPS = 1_000_000
+#: The signals that preempt a run; the preempt reason is the signal's name.
+STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM)
 
 
 @dataclass(frozen=True)
@@ -85,53 +92,63 @@ def summarize(machine: PatrolMachine, wall_time: float) -> Summary:
     )
 
 
-class _SigintFlag:
-    """Turns the first SIGINT into a flag (polled between steps) and the second into KeyboardInterrupt."""
+class StopSignals:
+    """Turns the first SIGINT or SIGTERM into a flag (polled between steps) and a second one into
+    KeyboardInterrupt; ``reason`` is the first signal's name. Outside the main thread it installs nothing."""
 
     def __init__(self) -> None:
         self.count = 0
-        self._previous: Any = None
-        self._installed = False
+        self.reason = ""
+        self._previous: dict[int, Any] = {}
 
-    def __enter__(self) -> _SigintFlag:
+    def __enter__(self) -> StopSignals:
         if threading.current_thread() is threading.main_thread():
-            self._previous = signal.signal(signal.SIGINT, self._handle)
-            self._installed = True
+            self._previous = {sig: signal.signal(sig, self._handle) for sig in STOP_SIGNALS}
         return self
 
-    def _handle(self, _signum: int, _frame: FrameType | None) -> None:
+    def _handle(self, signum: int, _frame: FrameType | None) -> None:
         self.count += 1
+        self.reason = self.reason or signal.Signals(signum).name
         if self.count > 1:
             raise KeyboardInterrupt
 
     def __exit__(self, *_exc: object) -> None:
-        if self._installed:
-            signal.signal(signal.SIGINT, self._previous)
+        for sig, previous in self._previous.items():
+            signal.signal(sig, previous)
+        self._previous = {}
+
+
+_SigintFlag = StopSignals  # the name tests/navigation/test_nav_machine.py imports
 
 
 def run_patrol(machine: PatrolMachine, time_limit: float | None = None, realtime: bool = False,
-               speed: float = 1.0, handle_sigint: bool = True) -> Summary:
+               speed: float = 1.0, handle_sigint: bool = True, max_steps: int | None = MAX_STEPS) -> Summary:
     """Start the machine (if not started) and step until its outcome; returns the summary.
 
-    ``time_limit`` (simulated seconds) preempts the patrol like Ctrl-C would. With ``realtime`` the
-    loop sleeps so that simulated time advances ``speed`` times as fast as the wall clock.
+    ``time_limit`` (simulated seconds) preempts the patrol like Ctrl-C would, and so does ``max_steps`` on a
+    run flat out (None: no bound). With ``realtime`` the loop sleeps so that simulated time advances ``speed``
+    times as fast as the wall clock. ``handle_sigint`` turns SIGINT and SIGTERM into a preemption.
     """
     sim = machine.sim
     if not machine.entered:
         machine.begin()
     wall0 = time.perf_counter()
     sim0 = sim.clock.now
+    step_limit = None if realtime or max_steps is None else sim.clock.steps + max_steps
     preempt_at: float | None = None
-    flag = _SigintFlag() if handle_sigint else None
+    flag = StopSignals() if handle_sigint else None
     try:
         if flag is not None:
             flag.__enter__()
         while not machine.finished:
             if flag is not None and flag.count and not machine.preempt_requested:
-                log.info("SIGINT: preempting the patrol")
-                machine.request_preempt("SIGINT")
+                log.info("%s: preempting the patrol", flag.reason)
+                machine.request_preempt(flag.reason)
             if time_limit is not None and sim.clock.now >= time_limit and not machine.preempt_requested:
                 machine.request_preempt("time limit")
+            if step_limit is not None and sim.clock.steps >= step_limit and not machine.preempt_requested:
+                log.info("%d steps of %g s run: preempting the patrol", max_steps, sim.config.dt)
+                machine.request_preempt(f"step limit of {max_steps} steps")
             if machine.preempt_requested:
                 preempt_at = sim.clock.now if preempt_at is None else preempt_at
                 if sim.clock.now - preempt_at > PREEMPT_GRACE:

@@ -44,18 +44,17 @@ import cv2
 import numpy as np
 import yaml
 
-from strictio import InputError, YAMLLimits, read_bytes, read_text, yaml_text
+from strictio import InputError, YAMLLimits, read_text, yaml_text
+from strictio.image_size import read_image_file
 
 from .geometry import Pose2D
 from .laser import LaserScan
+from .maps import MAX_COORDINATE, MAX_YAW, decode_image, finite_number, long_integer_message, shown_value
 
 log = logging.getLogger(__name__)
 
 #: A world file is a list of a few dozen things; a megabyte is plenty and never a bomb.
 WORLD_YAML_LIMITS = YAMLLimits(max_bytes=1024 * 1024, max_depth=8)
-#: Poster images: at most 32 MiB on disk and 4096 x 4096 pixels once decoded (checked before decoding).
-POSTER_MAX_BYTES = 32 * 1024 * 1024
-POSTER_MAX_PIXELS = 4096 * 4096
 #: A poster is a board this thick for collisions and the laser (the camera draws it as a plane).
 POSTER_THICKNESS = 0.02
 
@@ -401,9 +400,12 @@ class _Reader:
             if default is None:
                 raise self.fail(where, f"required field '{key}' is missing", label)
             return default
-        value = raw[key]
-        if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
-            raise self.fail((*where, key), f"expected a number, got {value!r}", label)
+        value = finite_number(raw[key])
+        if value is None:
+            raise self.fail((*where, key), f"expected a number, got {shown_value(raw[key])}", label)
+        bound = MAX_YAW if key == "yaw" else MAX_COORDINATE
+        if abs(value) > bound:
+            raise self.fail((*where, key), f"must lie within ±{bound:g}, got {value!r}", label)
         if positive and value <= 0.0:
             raise self.fail((*where, key), f"must be positive, got {value!r}", label)
         if minimum is not None and value < minimum:
@@ -420,11 +422,13 @@ class _Reader:
         return (int(value[0]), int(value[1]), int(value[2]))
 
     def point(self, value: Any, where: tuple[Any, ...], label: str) -> tuple[float, float]:
-        if (not isinstance(value, list) or len(value) != 2
-                or not all(isinstance(v, int | float) and not isinstance(v, bool) and math.isfinite(v)
-                           for v in value)):
-            raise self.fail(where, f"expected a point [x, y], got {value!r}", label)
-        return (float(value[0]), float(value[1]))
+        numbers = [n for n in (finite_number(v) for v in value) if n is not None] if isinstance(value, list) else []
+        if len(numbers) != 2 or len(value) != 2:
+            raise self.fail(where, f"expected a point [x, y], got {shown_value(value)}", label)
+        x, y = numbers
+        if max(abs(x), abs(y)) > MAX_COORDINATE:
+            raise self.fail(where, f"must lie within ±{MAX_COORDINATE:g} m, got {shown_value(value)}", label)
+        return (x, y)
 
     def mapping(self, value: Any, where: tuple[Any, ...], what: str, label: str = "") -> dict[str, Any]:
         if not isinstance(value, dict):
@@ -496,58 +500,16 @@ class _Reader:
             image_path = self.path.parent / image_path
         try:
             image = read_image(image_path)
-        except (InputError, ValueError) as exc:
-            message = str(exc.message) if isinstance(exc, InputError) else str(exc)
-            raise self.fail((*where, "image"), f"image file {image_path}: {message}", label) from None
+        except InputError as exc:
+            raise self.fail((*where, "image"), f"image file {image_path}: {exc.message}", label) from None
         return image_path, image
 
 
-def _image_size(data: bytes) -> tuple[int, int] | None:
-    """(width, height) from a PNG, JPEG, BMP or PNM header, or None for another format."""
-    if data[:8] == b"\x89PNG\r\n\x1a\n" and len(data) >= 24:
-        return int.from_bytes(data[16:20], "big"), int.from_bytes(data[20:24], "big")
-    if data[:2] == b"BM" and len(data) >= 26:
-        return abs(int.from_bytes(data[18:22], "little", signed=True)), \
-            abs(int.from_bytes(data[22:26], "little", signed=True))
-    if data[:2] == b"\xff\xd8":
-        i = 2
-        while i + 9 < len(data):
-            if data[i] != 0xFF:
-                i += 1
-                continue
-            marker = data[i + 1]
-            if marker in (0xD8, 0x01) or 0xD0 <= marker <= 0xD7 or marker == 0xFF:
-                i += 1 if marker == 0xFF else 2
-                continue
-            length = int.from_bytes(data[i + 2:i + 4], "big")
-            if 0xC0 <= marker <= 0xCF and marker not in (0xC4, 0xC8, 0xCC):
-                return int.from_bytes(data[i + 7:i + 9], "big"), int.from_bytes(data[i + 5:i + 7], "big")
-            i += 2 + length
-        return None
-    if data[:2] in (b"P2", b"P3", b"P5", b"P6"):
-        tokens: list[bytes] = []
-        for line in data[:1024].split(b"\n"):
-            tokens += line.split(b"#", 1)[0].split()
-            if len(tokens) >= 3:
-                try:
-                    return int(tokens[1]), int(tokens[2])
-                except ValueError:
-                    return None
-    return None
-
-
-def read_image(path: Path, max_pixels: int = POSTER_MAX_PIXELS) -> np.ndarray:
-    """A BGR uint8 image read through strictio; the size in the header is checked before decoding."""
-    data = read_bytes(path, POSTER_MAX_BYTES)
-    size = _image_size(data)
-    if size is None:
-        raise ValueError("not a PNG, JPEG, BMP or PNM image")
-    if size[0] * size[1] > max_pixels:
-        raise ValueError(f"{size[0]}x{size[1]} pixels, over the limit of {max_pixels:,} pixels for a poster")
-    image = cv2.imdecode(np.frombuffer(data, dtype=np.uint8), cv2.IMREAD_COLOR)
-    if image is None or image.size == 0:
-        raise ValueError("cannot be decoded as an image")
-    return np.ascontiguousarray(image)
+def read_image(path: Path) -> np.ndarray:
+    """A BGR uint8 image read through strictio: a regular file whose header is within the pixel limit
+    (``OBJREC_MAX_IMAGE_PIXELS``), checked before decoding; InputError otherwise."""
+    data, _size = read_image_file(path)
+    return np.ascontiguousarray(decode_image(data, path, cv2.IMREAD_COLOR))
 
 
 def parse_world(text: str, path: str | Path = "<world>") -> World:
@@ -556,7 +518,7 @@ def parse_world(text: str, path: str | Path = "<world>") -> World:
     try:
         raw = yaml_text(text, path, WORLD_YAML_LIMITS)
     except InputError as exc:
-        raise WorldError(str(exc)) from None
+        raise WorldError(long_integer_message(text, exc)) from None
     reader = _Reader(path, text)
     if raw is None:
         raw = {}

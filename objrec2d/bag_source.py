@@ -20,6 +20,9 @@ from objrec_core import SourceSpec
 from objrec_ros.bags import TopicInfo, header_frame_id, header_stamp_ns
 from objrec_ros.decode import COMPRESSED_IMAGE, IMAGE, DecodeError, encoding_of, image_to_bgr, is_depth_encoding
 from objrec_ros.source import BagSource, Decoded
+from strictio import InputError
+
+from .sources import decode_image
 
 
 def decode_compressed(message: Any) -> np.ndarray:
@@ -28,12 +31,15 @@ def decode_compressed(message: Any) -> np.ndarray:
     if "compresseddepth" in fmt:
         raise DecodeError(f"format {message.format!r}: compressed depth is not a picture (jpeg and png are read)")
     data = message.data
-    buffer = np.ascontiguousarray(data, dtype=np.uint8).reshape(-1) if isinstance(data, np.ndarray) else \
-        np.frombuffer(bytes(data), dtype=np.uint8)
-    image = cv2.imdecode(buffer, cv2.IMREAD_UNCHANGED) if buffer.size else None
-    if image is None:
+    buffer = np.ascontiguousarray(data, dtype=np.uint8).reshape(-1).tobytes() if isinstance(data, np.ndarray) \
+        else bytes(data)
+    if not buffer.startswith((b"\xff\xd8", b"\x89PNG\r\n\x1a\n")):
         raise DecodeError(f"compressed image (format {message.format!r}) cannot be decoded: corrupt, or not "
                           "jpeg or png")
+    try:  # its size is checked from the header first: a few bytes may claim gigapixels
+        image = decode_image(buffer, "compressed image", cv2.IMREAD_UNCHANGED)
+    except InputError as exc:
+        raise DecodeError(f"compressed image (format {message.format!r}): {exc.message}") from None
     if image.dtype == np.uint16:
         image = (image >> 8).astype(np.uint8)
     elif image.dtype != np.uint8:

@@ -3,8 +3,11 @@ image file, a video file, or a folder of images."""
 
 from __future__ import annotations
 
+import contextlib
 import logging
+import os
 import re
+import threading
 import time
 from collections.abc import Callable, Iterator
 from pathlib import Path
@@ -14,6 +17,9 @@ import cv2
 import numpy as np
 
 from objrec_core import Frame, FrameSource, Int, SourceError, SourceSpec
+from strictio import IMAGE_PIXELS, InputError, open_input
+from strictio.image_size import check_image_pixels, read_image_file, truncation
+from strictio.limits import check
 
 from .demo import FPS, DemoScene
 
@@ -21,6 +27,10 @@ log = logging.getLogger(__name__)
 
 IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff", ".ppm", ".pgm", ".webp")
 VIDEO_SUFFIXES = (".avi", ".mp4", ".mkv", ".mov", ".m4v", ".mpg", ".mpeg", ".webm", ".wmv", ".ogv", ".flv")
+#: FFmpeg prints its own decoding errors on stderr unless told not to (-8: AV_LOG_QUIET); a source reports
+#: a broken video in one line of its own. OpenCV reads this when it first uses FFmpeg (a capture or a video
+#: writer), hence at import; a user's own setting wins.
+os.environ.setdefault("OPENCV_FFMPEG_LOGLEVEL", "-8")
 
 
 def _natural_key(path: Path) -> list[object]:
@@ -28,14 +38,62 @@ def _natural_key(path: Path) -> list[object]:
     return [int(t) if t.isdigit() else t.lower() for t in re.split(r"(\d+)", path.name)]
 
 
-def read_image(path: Path) -> np.ndarray:
-    """Read a colour image, with a clear error where it is missing or not an image."""
-    if not path.is_file():
-        raise SourceError(f"{path}: no such image file")
-    image = cv2.imread(str(path), cv2.IMREAD_COLOR)
-    if image is None:
-        raise SourceError(f"{path}: not a readable image (corrupt, or a format OpenCV cannot decode)")
+_quiet_lock = threading.Lock()
+_quiet_depth = 0
+_quiet_saved = 0
+
+
+@contextlib.contextmanager
+def _opencv_quiet() -> Iterator[None]:
+    """OpenCV's own log lines off while it decodes: a refused image is reported once, by the caller."""
+    global _quiet_depth, _quiet_saved
+    with _quiet_lock:
+        if _quiet_depth == 0:
+            _quiet_saved = cv2.utils.logging.getLogLevel()
+            cv2.utils.logging.setLogLevel(cv2.utils.logging.LOG_LEVEL_SILENT)
+        _quiet_depth += 1
+    try:
+        yield
+    finally:
+        with _quiet_lock:
+            _quiet_depth -= 1
+            if _quiet_depth == 0:
+                cv2.utils.logging.setLogLevel(_quiet_saved)
+
+
+def decode_image(data: bytes | bytearray | memoryview, name: str, flags: int = cv2.IMREAD_COLOR,
+                 where: str = "") -> np.ndarray:
+    """Decode an image held in memory, after its header passed the pixel limit and its end was found.
+
+    Every refusal is an InputError naming ``name`` (and ``where`` in it): an unknown format, a size over
+    ``OBJREC_MAX_IMAGE_PIXELS``, a JPEG or PNG cut short (their decoders would return it half grey), a size
+    OpenCV itself refuses, or bytes it cannot decode.
+    """
+    check_image_pixels(name, data, where)
+    cut = truncation(data)
+    if cut is not None:
+        raise InputError(name, cut, where)
+    try:
+        with _opencv_quiet():
+            image = cv2.imdecode(np.frombuffer(data, dtype=np.uint8), flags)
+    except cv2.error as exc:
+        raise InputError(name, f"OpenCV refuses to decode it: {_cv_reason(exc)}", where) from None
+    if image is None or image.size == 0:
+        raise InputError(name, "not a readable image (corrupt, or a format OpenCV cannot decode)", where)
     return image
+
+
+def _cv_reason(exc: cv2.error) -> str:
+    """The useful last part of an OpenCV error ("... error: (-4:Insufficient memory) Failed to ...")."""
+    text = " ".join(str(exc).split())
+    return text.split(" error: ", 1)[-1][:200]
+
+
+def read_image(path: Path) -> np.ndarray:
+    """Read a colour image through strictio: a regular file, its size checked from the header before it is
+    decoded, and refused whole when it is cut short; InputError naming the file otherwise."""
+    data, _size = read_image_file(path)
+    return decode_image(data, str(path))
 
 
 class ImageFileSource(FrameSource):
@@ -93,7 +151,7 @@ class FolderSource(FrameSource):
         except OSError as exc:
             raise SourceError(f"{path}: cannot list the folder: {exc.strerror or exc}") from None
         self.files = sorted(
-            (p for p in entries if p.suffix.lower() in IMAGE_SUFFIXES and p.is_file()), key=_natural_key
+            (p for p in entries if p.suffix.lower() in IMAGE_SUFFIXES and not p.is_dir()), key=_natural_key
         )
         if not self.files:
             raise SourceError(f"{path}: folder holds no images ({', '.join(sorted(IMAGE_SUFFIXES))})")
@@ -111,18 +169,24 @@ class FolderSource(FrameSource):
         return self.frames_from(0)
 
     def frames_from(self, index: int) -> Iterator[Frame]:
-        """From the ``index``-th image on; each frame's ``source`` is its file, so a viewer can name it."""
+        """From the ``index``-th image on; each frame's ``source`` is its file, so a viewer can name it. A file
+        that cannot be read is skipped with one warning; a folder none of whose images can be read is an error
+        (once the whole folder was tried)."""
         start = max(0, index)
+        read = 0
         for number, file in enumerate(self.files[start:], start):
-            image = cv2.imread(str(file), cv2.IMREAD_COLOR)
-            if image is None:
-                log.warning("%s: not a readable image, skipped", file)
+            try:
+                image = read_image(file)
+            except InputError as exc:
+                log.warning("%s; skipped", exc)
                 if file not in self.skipped:
                     self.skipped.append(file)
                 continue
+            read += 1
             yield Frame(image, file.stat().st_mtime, number, str(file))
-        if len(self.skipped) == len(self.files):
-            raise SourceError(f"{self.name}: none of its {len(self.files)} images could be read")
+        if read == 0 and (start == 0 or len(self.skipped) == len(self.files)):
+            raise SourceError(f"{self.name}: no readable image in the folder: none of its {len(self.files)} "
+                              "images could be read")
 
 
 class CaptureSource(FrameSource):
@@ -148,7 +212,8 @@ class CaptureSource(FrameSource):
         self._target = target
         self._opener = opener
         try:
-            self._capture = opener(target)
+            with _opencv_quiet():  # "can't open": said once, below
+                self._capture = opener(target)
         except (cv2.error, OverflowError, ValueError) as exc:
             raise SourceError(f"{name}: cannot open: {str(exc).strip().splitlines()[-1]}") from None
         if not self._capture.isOpened():
@@ -157,6 +222,18 @@ class CaptureSource(FrameSource):
         count = int(self._capture.get(cv2.CAP_PROP_FRAME_COUNT)) if not is_camera else 0
         self._length = count if count > 0 else None
         self._fps = self._capture.get(cv2.CAP_PROP_FPS) or FPS
+        if not is_camera:
+            self._check_frame_size(self._capture.get(cv2.CAP_PROP_FRAME_WIDTH),
+                                   self._capture.get(cv2.CAP_PROP_FRAME_HEIGHT), "frames")
+
+    def _check_frame_size(self, width: float, height: float, what: str) -> None:
+        """Refuse a video whose frames claim more pixels than the limit, before (more of) them are decoded."""
+        try:
+            w, h = int(width), int(height)
+        except (OverflowError, ValueError):  # NaN or infinite from a broken container
+            raise InputError(self.name, f"{what} of size {width}x{height}") from None
+        if w > 0 and h > 0:
+            check(self.name, IMAGE_PIXELS, w * h, f"{what} of {w}x{h}")
 
     @property
     def length(self) -> int | None:
@@ -176,7 +253,8 @@ class CaptureSource(FrameSource):
             log.warning("%s: no frame, retrying (%d/%d)", self.name, attempt, self.retries)
             time.sleep(self.retry_delay)
             self._capture.release()
-            self._capture = self._opener(self._target)
+            with _opencv_quiet():
+                self._capture = self._opener(self._target)
             ok, image = self._capture.read() if self._capture.isOpened() else (False, None)
             if ok and image is not None:
                 return image
@@ -202,17 +280,24 @@ class CaptureSource(FrameSource):
         return self._frames(0)
 
     def _frames(self, index: int) -> Iterator[Frame]:
+        """The frames from ``index`` on. A file that ends before the frame count its header claims (one frame
+        short is tolerated: containers round it) is an InputError once the frames before were delivered, so
+        that a command keeps what it made of them and still fails."""
         start = time.time() - index / self._fps
+        first = index
         while True:
             image = self._read()
             if image is None:
                 if index == 0 and not self.is_camera:
                     raise SourceError(f"{self.name}: not a video OpenCV can decode (no frame could be read)")
                 if self._length is not None and index < self._length - 1:
-                    raise SourceError(
-                        f"{self.name}: frame {index} of {self._length} cannot be decoded (truncated or corrupt)"
-                    )
+                    read = f"{index} of {self._length} frames were read" if first == 0 else \
+                        f"{index - first} frames were read from frame {first}"
+                    raise InputError(self.name, f"truncated or corrupt: frame {index} of {self._length} cannot be "
+                                                f"decoded; {read}")
                 return
+            if index == first and not self.is_camera:
+                self._check_frame_size(image.shape[1], image.shape[0], "decoded frames")
             stamp = time.time() if self.is_camera else start + index / self._fps
             yield Frame(image, stamp, index, self.name)
             index += 1
@@ -224,9 +309,9 @@ class CaptureSource(FrameSource):
 def _is_text(path: Path) -> bool:
     """Whether a file starts like text (no video does): empty, or UTF-8 without NUL bytes."""
     try:
-        with path.open("rb") as stream:
+        with open_input(path, limit=None) as stream:
             head = stream.read(1024)
-    except OSError:
+    except (InputError, OSError):
         return False  # let opening it report the problem
     if b"\0" in head:
         return False
@@ -252,6 +337,8 @@ class VideoSource(CaptureSource):
             return 0
         if path.suffix.lower() in cls.extensions:
             return 2
+        if not path.is_file():  # a FIFO or a device: taken here, so that opening it says what it is
+            return 1
         return 0 if _is_text(path) else 1
 
     @classmethod
@@ -262,9 +349,27 @@ class VideoSource(CaptureSource):
         self,
         path: str | Path,
         name: str | None = None,
-        opener: Callable[[str | int], cv2.VideoCapture] = cv2.VideoCapture,
+        opener: Callable[[str | int], cv2.VideoCapture] | None = None,
     ) -> None:
+        opener = opener or _open_video_file
+        _check_video_file(path, name or str(path))
         super().__init__(str(path), name or str(path), is_camera=False, opener=opener)
+
+
+def _open_video_file(target: str | int) -> cv2.VideoCapture:
+    """A video file through FFmpeg only: OpenCV's other back-ends would read image sequences past the
+    header checks, or print their own complaints on stderr."""
+    return cv2.VideoCapture(target, cv2.CAP_FFMPEG)
+
+
+def _check_video_file(path: str | Path, name: str) -> None:
+    """A video file is opened by FFmpeg, which would block forever on a FIFO and read ``/dev/zero`` without
+    end: only a regular file is handed over (a camera is ``camera:N``)."""
+    try:
+        open_input(path, limit=None).close()
+    except InputError as exc:
+        hint = " (for a camera, give camera:N)" if "character device" in exc.message else ""
+        raise InputError(name, exc.message + hint) from None
 
 
 class CameraSource(CaptureSource):

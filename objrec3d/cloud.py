@@ -119,7 +119,8 @@ class PointCloud:
         # One sum and one test instead of three tests and a reduction: a NaN or infinite coordinate makes
         # the sum non-finite (so does an absurd 1e38 m, which is no measurement either).
         p = self.points
-        return np.isfinite(p[:, 0] + p[:, 1] + p[:, 2])
+        with np.errstate(invalid="ignore", over="ignore"):  # inf + -inf, 3e38 + 3e38: invalid, and no warning
+            return np.isfinite(p[:, 0] + p[:, 1] + p[:, 2])
 
     def count_valid(self) -> int:
         return int(np.count_nonzero(self.valid_mask()))

@@ -108,7 +108,8 @@ def fit_plane(
         a, b, c = sample[idx[:, 0]], sample[idx[:, 1]], sample[idx[:, 2]]
         normals = np.cross(b - a, c - a)
         length = np.linalg.norm(normals, axis=1)
-        ok = length > 1e-9
+        # Three points (nearly) on one line define no plane: on a collinear cloud every draw is such a triple.
+        ok = length > np.maximum(1e-3 * np.linalg.norm(b - a, axis=1) * np.linalg.norm(c - a, axis=1), 1e-9)
         done += batch
         if not ok.any():
             continue
@@ -579,6 +580,8 @@ def _depth_band(pts: np.ndarray, nrm: np.ndarray, rays: np.ndarray, fit: ShapeFi
     The RANSAC inliers are cut at the threshold and by the normals' agreement, which at 7-10 mm of depth
     noise keeps the points that agree with the model's radius, right or wrong; a band as wide as the noise
     lets the fit move to where the points are. Also returns the depth noise measured (sigma, metres)."""
+    if fit.inliers.size == 0:
+        return fit.inliers, 0.0
     rel = pts - fit.center
     if fit.axis is None:
         section, ray_section = rel, rays

@@ -8,7 +8,12 @@ smallest eigenvector of the covariance of nearby points (SciPy's k-d tree). How 
 depth noise is as large as that, and the normals are noise.
 
 Normals are unit float32 vectors oriented toward the sensor (``n . (origin - p) >= 0``); a point whose
-normal cannot be estimated (too few neighbours, a depth jump) gets NaN.
+normal cannot be estimated (too few neighbours, a depth jump, neighbours all on one line or at one spot)
+gets NaN.
+
+Degenerate clouds stay cheap: a k-d tree cannot split points that coincide, so a query among thousands of
+copies of one point visits every copy; searches are therefore made among the distinct points whenever
+copies show up.
 """
 
 from __future__ import annotations
@@ -16,6 +21,7 @@ from __future__ import annotations
 import numpy as np
 
 from .cloud import PointCloud
+from .voxel_filter import cell_groups
 
 
 def estimate_normals(cloud: PointCloud, indices: np.ndarray, *, window: int = 3, knn: int = 30,
@@ -77,8 +83,12 @@ def grid_normals(cloud: PointCloud, indices: np.ndarray, *, window: int = 3, max
     length = np.linalg.norm(normals, axis=1)
     depth = cloud.points[indices, 2].astype(np.float64)
     limit = max_slant * np.abs(depth)
+    du_length, dv_length = np.linalg.norm(du, axis=1), np.linalg.norm(dv, axis=1)
+    # Gradients (nearly) parallel, or apart by float32 rounding only, span no surface: a line, or one spot.
     with np.errstate(invalid="ignore"):
-        ok = (length > 0) & (np.linalg.norm(du, axis=1) < limit) & (np.linalg.norm(dv, axis=1) < limit)
+        across = np.maximum(_MIN_SINE * du_length * dv_length,
+                            _RESOLUTION * np.abs(depth) * np.maximum(du_length, dv_length))
+        ok = (length > across) & (du_length < limit) & (dv_length < limit)
     normals = normals[ok] / length[ok, None]
     _orient(normals, cloud.points[indices[ok]], cloud.sensor_origin)
     out[ok] = normals
@@ -103,11 +113,39 @@ def knn_normals(points: np.ndarray, k: int = 30, origin: np.ndarray | None = Non
         _, neighbours = tree.query(chunk, k=k, workers=-1)
         local = points[neighbours]  # n x k x 3
         local -= local.mean(axis=1, keepdims=True)
-        _, vectors = np.linalg.eigh(np.einsum("nki,nkj->nij", local, local))
+        values, vectors = np.linalg.eigh(np.einsum("nki,nkj->nij", local, local))
         normals = vectors[:, :, 0]
+        # Neighbours spread along one direction only (a line, one spot; the rest float32 rounding) leave the
+        # normal undetermined.
+        rounding = k * (_RESOLUTION * np.abs(chunk).max(axis=1)) ** 2
+        normals[~(values[:, 1] > np.maximum(_MIN_SINE**2 * values[:, 2], rounding))] = np.nan
         _orient(normals, chunk, np.zeros(3) if origin is None else origin)
         out[start : start + chunk.shape[0]] = normals
     return out
+
+
+def no_surface(points: np.ndarray) -> str:
+    """Why ``points`` (finite, N x 3) span no surface, for a user whose cloud has no normals: "all one
+    point" or "on one line" (float32 rounding aside), or "" when they do span one. A few milliseconds."""
+    points = np.asarray(points, dtype=np.float64)
+    if points.shape[0] == 0:
+        return ""
+    centre = points.mean(axis=0)
+    centred = points - centre
+    values = np.linalg.eigvalsh(np.einsum("ni,nj->ij", centred, centred) / points.shape[0])
+    rounding = (_RESOLUTION * float(np.abs(centre).max() + np.sqrt(max(values[2], 0.0)))) ** 2
+    if not values[2] > rounding:
+        return "the points are all one point"
+    if not values[1] > max(_MIN_SINE**2 * values[2], rounding):
+        return "the points lie on one line"
+    return ""
+
+
+def distinct_points(points: np.ndarray) -> np.ndarray:
+    """``points`` without repeated copies of a point (in some order)."""
+    rows = np.ascontiguousarray(np.asarray(points, dtype=np.float64) + 0.0)  # + 0.0: -0.0 is 0.0
+    unique = np.unique(rows.view(np.dtype((np.void, rows.dtype.itemsize * 3))).reshape(-1))
+    return unique.view(np.float64).reshape(-1, 3)
 
 
 def neighbourhood_radius(points: np.ndarray, k: int = 30, sample: int = 2000,
@@ -124,6 +162,12 @@ def neighbourhood_radius(points: np.ndarray, k: int = 30, sample: int = 2000,
         return 0.0
     rng = rng if rng is not None else np.random.default_rng(0)
     probe = points[rng.choice(n, size=sample, replace=False)] if n > sample else points
+    if distinct_points(probe).shape[0] < probe.shape[0]:  # copies of points: measure among distinct ones
+        points = distinct_points(points)
+        n = points.shape[0]
+        if n < 4:
+            return 0.0
+        probe = points[rng.choice(n, size=sample, replace=False)] if n > sample else points
     k = max(3, min(int(k), n))
     distances, neighbours = cKDTree(points).query(probe, k=k)
     spacing = float(np.median(distances[:, 1]))
@@ -143,20 +187,23 @@ def adaptive_normals(points: np.ndarray, k: int = 30, origin: np.ndarray | None 
     nearest to its point (a sparse cloud, where cells hold one point, gets plain k nearest neighbours).
     """
     points = np.asarray(points, dtype=np.float64)
-    if points.shape[0] < 3:
+    if points.shape[0] < 3 or no_surface(points):  # one spot or a line: no neighbourhood search needed to see it
         return np.full((points.shape[0], 3), np.nan, dtype=np.float32)
     radius = radius if radius > 0 else neighbourhood_radius(points, k)
     cell = radius / np.sqrt(max(k, 3) / np.pi)
-    if cell <= 0:
-        return knn_normals(points, k, origin)
-    keys = np.floor((points - points.min(axis=0)) / cell).astype(np.int64)
-    span = keys.max(axis=0) + 1
-    flat = (keys[:, 0] * span[1] + keys[:, 1]) * span[2] + keys[:, 2]
-    _, group = np.unique(flat, return_inverse=True)
-    group = group.reshape(-1)
+    if cell <= 0:  # fewer than four distinct points
+        return knn_normals(distinct_points(points), k, origin, at=points)
+    group, _ = cell_groups(np.floor((points - points.min(axis=0)) / cell))
     sizes = np.bincount(group).astype(np.float64)
     means = np.stack([np.bincount(group, points[:, i]) for i in range(3)], axis=1) / sizes[:, None]
     return knn_normals(means, k, origin, at=points)
+
+
+#: Two directions closer than this sine (0.06 degrees) to parallel span no plane: no normal from them.
+_MIN_SINE = 1e-3
+#: A spread below this fraction of the coordinates' size is float32 rounding (a few units in the last place),
+#: not a surface: a micrometre at a metre, where a depth sensor's noise is a millimetre.
+_RESOLUTION = 1e-6
 
 
 def _orient(normals: np.ndarray, points: np.ndarray, origin: np.ndarray) -> None:

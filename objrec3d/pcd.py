@@ -1,9 +1,11 @@
 """Reading and writing PCD files (PCL's format): ascii, binary and binary_compressed (LZF).
 
 The header is parsed and checked here, so a corrupt or truncated file is refused with a message that names
-the file and the problem, and the width x height layout that makes normals fast is kept (Open3D's reader
-drops it). The LZF body of binary_compressed files, and the binary encodings when writing, go through
-``pypcd4`` (with the C LZF codec of python-neo-lzf); ascii and plain binary bodies are read by NumPy.
+the file and the problem (the field, the line), and the width x height layout that makes normals fast is kept
+(Open3D's reader drops it). What a header claims is checked before anything is allocated for it: the points
+against ``strictio.limits.CLOUD_POINTS``, a compressed body's sizes against what LZF can possibly give. The
+LZF body of binary_compressed files, and the binary encodings when writing, go through ``pypcd4`` (with the C
+LZF codec of python-neo-lzf); ascii and plain binary bodies are read by NumPy.
 """
 
 from __future__ import annotations
@@ -12,6 +14,7 @@ import io
 import logging
 import os
 import struct
+import warnings
 from dataclasses import dataclass
 from pathlib import Path
 from types import ModuleType
@@ -20,7 +23,8 @@ from typing import Any
 import numpy as np
 
 from objrec_core import SourceError
-from strictio import InputError, read_bytes, write_atomically
+from strictio import CLOUD_POINTS, InputError, read_bytes, write_atomically
+from strictio.limits import check
 
 from .cloud import PointCloud
 
@@ -32,17 +36,30 @@ MAX_PCD_BYTES = 2 * 1024**3
 
 _TYPES = {("F", 4): "<f4", ("F", 8): "<f8", ("U", 1): "u1", ("U", 2): "<u2", ("U", 4): "<u4", ("U", 8): "<u8",
           ("I", 1): "i1", ("I", 2): "<i2", ("I", 4): "<i4", ("I", 8): "<i8"}
-_MAX_HEADER_LINES = 64
+#: A header may be long (PCL tools write comment lines), but not endless: bounded by bytes, not lines.
+MAX_HEADER_BYTES = 1024 * 1024
+#: The largest point a header may declare: PCL's largest point types (descriptors) are a few kilobytes.
+MAX_POINT_BYTES = 64 * 1024
+#: LZF shrinks data at most about 88-fold (a 3-byte back-reference copies at most 264 bytes).
+_LZF_MAX_RATIO = 100
 _SINGLE_VALUED = ("x", "y", "z", "rgb", "rgba")  # the fields a PointCloud takes; each must have COUNT 1
 
 
-class CloudFileError(SourceError):
-    """A point-cloud file that cannot be read; the message names the file and the problem."""
+class CloudFileError(SourceError, InputError):
+    """A point-cloud file that cannot be read; the message names the file and the problem.
+
+    A SourceError for the sources and an InputError for the commands, which report both the same way."""
 
     def __init__(self, path: str | os.PathLike[str], problem: str) -> None:
-        self.path = str(path)
         self.problem = problem
-        super().__init__(f"{self.path}: {problem}")
+        InputError.__init__(self, path, problem)
+
+
+def shown(text: str, limit: int = 40) -> str:
+    """A name or value from a file as it may be printed: escaped (no control characters reach the
+    terminal), and cut short."""
+    escaped = text.encode("unicode_escape", "backslashreplace").decode("ascii")
+    return escaped if len(escaped) <= limit else escaped[:limit] + "..."
 
 
 @dataclass(frozen=True)
@@ -73,7 +90,7 @@ def read_pcd(path: str | os.PathLike[str]) -> PointCloud:
     header, offset = _parse_header(path, raw)
     body = memoryview(raw)[offset:]
     if header.encoding == "ascii":
-        table = _read_ascii(path, body, header.dtype, header.points)
+        table = _read_ascii(path, body, header.dtype, header.points, raw.count(b"\n", 0, offset))
         columns = {name: table[name] for name in _SINGLE_VALUED if name in header.fields}
     elif header.encoding == "binary":
         need = header.points * header.dtype.itemsize
@@ -90,9 +107,11 @@ def read_pcd(path: str | os.PathLike[str]) -> PointCloud:
 def _parse_header(path: Path, raw: bytes) -> tuple[_Header, int]:
     entries: dict[str, list[str]] = {}
     offset = 0
-    for _ in range(_MAX_HEADER_LINES):
-        end = raw.find(b"\n", offset)
+    while True:
+        end = raw.find(b"\n", offset, MAX_HEADER_BYTES)
         if end < 0:
+            if len(raw) > MAX_HEADER_BYTES:
+                raise CloudFileError(path, f"not a PCD file: no DATA line in its first {MAX_HEADER_BYTES:,} bytes")
             raise CloudFileError(path, "not a PCD file: the header has no DATA line")
         try:
             line = raw[offset:end].decode("ascii").strip()
@@ -105,8 +124,6 @@ def _parse_header(path: Path, raw: bytes) -> tuple[_Header, int]:
         entries[key.upper()] = values
         if key.upper() == "DATA":
             break
-    else:
-        raise CloudFileError(path, "not a PCD file: no DATA line in the first lines")
     for key in ("FIELDS", "SIZE", "TYPE", "WIDTH", "DATA"):
         if key not in entries:
             raise CloudFileError(path, f"not a PCD file: the header has no {key} line")
@@ -115,56 +132,70 @@ def _parse_header(path: Path, raw: bytes) -> tuple[_Header, int]:
     counts = entries.get("COUNT", ["1"] * len(fields))
     if not (len(fields) == len(sizes) == len(types) == len(counts)):
         raise CloudFileError(path, "corrupt header: FIELDS, SIZE, TYPE and COUNT have different lengths")
-    try:
-        width = int(entries["WIDTH"][0])
-        height = int(entries.get("HEIGHT", ["1"])[0])
-        points = int(entries.get("POINTS", [str(width * height)])[0])
-        sizes_i, counts_i = [int(s) for s in sizes], [int(c) for c in counts]
-    except (ValueError, IndexError):
-        raise CloudFileError(path, "corrupt header: WIDTH, HEIGHT, POINTS, SIZE and COUNT must be integers") from None
-    if width < 0 or height < 0 or points != width * height:
+    width = _whole(path, "WIDTH", entries["WIDTH"][:1])
+    height = _whole(path, "HEIGHT", entries.get("HEIGHT", ["1"])[:1])
+    points = _whole(path, "POINTS", entries["POINTS"][:1]) if "POINTS" in entries else width * height
+    if points != width * height:
         raise CloudFileError(path, f"corrupt header: POINTS {points} is not WIDTH {width} x HEIGHT {height}")
+    check(path, CLOUD_POINTS, points, "WIDTH x HEIGHT", "header")  # before anything is allocated for them
     descr = []
-    for name, size, kind, count in zip(fields, sizes_i, types, counts_i, strict=True):
+    point_bytes = 0
+    for name, size_text, kind, count_text in zip(fields, sizes, types, counts, strict=True):
+        size = _whole(path, f"SIZE of field {shown(name)}", [size_text])
+        count = _whole(path, f"COUNT of field {shown(name)}", [count_text])
         code = _TYPES.get((kind, size))
-        if code is None or count < 1:
-            raise CloudFileError(path, f"corrupt header: field {name} has unsupported TYPE {kind} SIZE {size}")
-        if count != 1 and name in _SINGLE_VALUED:
-            raise CloudFileError(path, f"corrupt header: field {name} has COUNT {count}; it must be 1")
+        if code is None:
+            raise CloudFileError(path, f"corrupt header: field {shown(name)} has unsupported TYPE {shown(kind)} "
+                                       f"SIZE {size} (F 4/8, U or I 1/2/4/8)")
+        if count < 1 or (count != 1 and name in _SINGLE_VALUED):
+            must = "it must be 1" if name in _SINGLE_VALUED else "it must be at least 1"
+            raise CloudFileError(path, f"corrupt header: field {shown(name)} has COUNT {count}; {must}")
+        point_bytes += size * count
+        if point_bytes > MAX_POINT_BYTES:
+            raise CloudFileError(path, f"corrupt header: field {shown(name)} with COUNT {count} makes a point over "
+                                       f"{MAX_POINT_BYTES:,} bytes")
         descr.append((name, code, (count,)) if count > 1 else (name, code))
+    if len(set(fields)) != len(fields):
+        twice = next(name for name in fields if fields.count(name) > 1)
+        raise CloudFileError(path, f"corrupt header: field {shown(twice)} occurs more than once")
     try:
         dtype = np.dtype(descr)
     except (ValueError, TypeError) as exc:
         raise CloudFileError(path, f"corrupt header: {exc}") from None
     encoding = entries["DATA"][0].lower() if entries["DATA"] else ""
     if encoding not in ENCODINGS:
-        raise CloudFileError(path, f"unknown DATA encoding {encoding!r} (ascii, binary or binary_compressed)")
+        raise CloudFileError(path, f"unknown DATA encoding '{shown(encoding)}' (ascii, binary or binary_compressed)")
     for axis in "xyz":
         if axis not in fields:
-            raise CloudFileError(path, f"no {axis} field (fields: {' '.join(fields)})")
+            raise CloudFileError(path, f"no {axis} field (fields: {shown(' '.join(fields), 80)})")
+    sizes_i = [dtype[name].base.itemsize for name in fields]
+    counts_i = [int(np.prod(dtype[name].shape)) or 1 for name in fields]
     return _Header(fields, sizes_i, types, counts_i, width, height, encoding, dtype), offset
 
 
-def _read_ascii(path: Path, body: memoryview, dtype: np.dtype, points: int) -> np.ndarray:
-    try:
-        values = np.array(bytes(body).split(), dtype=np.float64)
-    except ValueError:
-        raise CloudFileError(path, "corrupt ascii data: a value is not a number") from None
+def _whole(path: Path, what: str, values: list[str]) -> int:
+    """A header's whole number, at least 0; CloudFileError names what it is and shows the value."""
+    text = values[0] if values else ""
+    if not text.isdigit() or len(text) > 20:  # no sign, no 5,000 digits: a count or a size
+        raise CloudFileError(path, f"corrupt header: {what} '{shown(text, 24)}' is not a whole number")
+    return int(text)
+
+
+def _read_ascii(path: Path, body: memoryview, dtype: np.dtype, points: int, first_line: int) -> np.ndarray:
     columns = sum(int(np.prod(dtype[name].shape)) or 1 for name in dtype.names)
-    if values.size < points * columns:
-        raise CloudFileError(path, f"truncated: ascii data holds {values.size // max(columns, 1)} of {points} points")
-    if values.size > points * columns:
-        raise CloudFileError(path, f"corrupt ascii data: more values than {points} points x {columns} columns")
+    values, rest = ascii_rows(path, body, columns, points, first_line)
+    if bytes(rest).strip():
+        raise CloudFileError(path, f"corrupt ascii data: more lines than the {points} points the header declares")
     table = np.zeros(points, dtype=dtype)
-    values = values.reshape(points, columns)
     col = 0
     for name in dtype.names:
         count = int(np.prod(dtype[name].shape)) or 1
         block = values[:, col : col + count]
         base = dtype[name].base
-        if np.issubdtype(base, np.integer) and name in ("rgb", "rgba"):
-            block = block.astype(np.uint64)
-        table[name] = block.reshape(table[name].shape).astype(base)
+        with np.errstate(invalid="ignore", over="ignore"):  # NaN or 1e30 in an integer field: its bits, no warning
+            if np.issubdtype(base, np.integer) and name in ("rgb", "rgba"):
+                block = block.astype(np.uint64)
+            table[name] = block.reshape(table[name].shape).astype(base)
         col += count
     # PCL writes a float-typed rgb as the float whose bits are the colour; ascii keeps those bits.
     return table
@@ -183,6 +214,9 @@ def _read_compressed(path: Path, body: memoryview, header: _Header) -> dict[str,
         raise CloudFileError(path, f"corrupt: uncompressed size {uncompressed} bytes, {points} points need {need}")
     if len(body) - 8 < compressed:
         raise CloudFileError(path, f"truncated: {len(body) - 8} of {compressed} compressed bytes present")
+    if uncompressed > _LZF_MAX_RATIO * compressed + 64:  # before the decompressor allocates the claim
+        raise CloudFileError(path, f"corrupt: {compressed:,} compressed bytes cannot decompress to the "
+                                   f"{uncompressed:,} bytes the size header claims")
     pypcd4 = _pypcd4(path, "reading binary_compressed PCD")
     # pypcd4 is given a header it composes itself from what was checked here, with neutral field names: its
     # own parser reads at most 10 header lines, needs COUNT and POINTS and renames "_" padding fields.
@@ -199,10 +233,80 @@ def _read_compressed(path: Path, body: memoryview, header: _Header) -> dict[str,
     return {name: table[f"f{i}"] for i, name in enumerate(header.fields) if name in _SINGLE_VALUED}
 
 
+def ascii_rows(path: Path, data: bytes | memoryview, columns: int, rows: int, first_line: int = 0
+               ) -> tuple[np.ndarray, memoryview]:
+    """The first ``rows`` lines of ``data`` as a rows x columns float64 array, and the bytes after them.
+
+    One point per line, as PCL and every PLY writer put them. A line that is not ``columns`` numbers is a
+    CloudFileError naming its line number in the file (``first_line``: lines before ``data``).
+    """
+    data = memoryview(data).cast("B")
+    end = line_end(data, rows)
+    values = _numbers(data[:end], columns)
+    if values is None:
+        bad = _first_bad_line(data[:end], columns)
+        line = bytes(data[bad[0] : bad[1]]).strip()
+        tokens = len(line.split())
+        number = first_line + bytes(data[: bad[0]]).count(b"\n") + 1
+        if bad[1] == len(data) and tokens < columns:
+            raise CloudFileError(path, f"truncated: line {number} ends after {tokens} of {columns} values")
+        raise CloudFileError(path, f"corrupt ascii data: line {number} is not {columns} numbers: "
+                                   f"'{shown(line.decode('latin-1'))}'")
+    if values.shape[0] < rows:
+        raise CloudFileError(path, f"truncated: ascii data holds {values.shape[0]} of {rows} points")
+    return values, data[end:]
+
+
+def _numbers(data: memoryview, columns: int) -> np.ndarray | None:
+    """Lines of ``columns`` numbers (blank lines skipped), or None when a line is anything else."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", UserWarning)  # "input contained no data": zero rows, checked by the caller
+        try:
+            values = np.loadtxt(io.BytesIO(data), dtype=np.float64, comments=None, ndmin=2)
+        except ValueError:
+            return None
+    if values.size == 0:
+        return np.zeros((0, columns))
+    return values if values.shape[1] == columns else None
+
+
+def line_end(data: memoryview, lines: int) -> int:
+    """The offset just past the ``lines``-th newline of ``data`` (its length when it has fewer), found a
+    megabyte at a time: no array as large as the data."""
+    if lines <= 0:
+        return 0
+    chunk, start, seen = 1 << 20, 0, 0
+    while start < len(data):
+        piece = bytes(data[start : start + chunk])
+        found = piece.count(b"\n")
+        if seen + found >= lines:
+            at = np.flatnonzero(np.frombuffer(piece, np.uint8) == 10)[lines - seen - 1]
+            return start + int(at) + 1
+        seen += found
+        start += chunk
+    return len(data)
+
+
+def _first_bad_line(data: memoryview, columns: int) -> tuple[int, int]:
+    """Start and end offsets of the first line that is not ``columns`` numbers (bisection: a few parses)."""
+    total = bytes(data).count(b"\n") + 1
+    good, bad = 0, total  # the first `good` lines parse; the first `bad` lines do not
+    while bad - good > 1:
+        middle = (good + bad) // 2
+        if _numbers(data[: line_end(data, middle)], columns) is None:
+            bad = middle
+        else:
+            good = middle
+    start = line_end(data, good)
+    end = bytes(data).find(b"\n", start)
+    return start, len(data) if end < 0 else end
+
+
 def _to_cloud(path: Path, columns: dict[str, np.ndarray], width: int, height: int) -> PointCloud:
     xyz = np.empty((len(columns["x"]), 3), dtype=np.float32)
-    for i, axis in enumerate("xyz"):
-        xyz[:, i] = columns[axis]
+    with np.errstate(over="ignore", invalid="ignore"):  # a double or integer beyond float32: inf, an invalid point
+        for i, axis in enumerate("xyz"):
+            xyz[:, i] = columns[axis]
     colors = None
     for name in ("rgba", "rgb"):
         if name in columns:

@@ -26,7 +26,7 @@ from .base import CloudDetector
 from .cloud import PointCloud, as_cloud
 from .fitting import ShapeFit, ShapeSettings, fit_plane, ransac_shape
 from .messages import DetectedObject3D, OrientedBox, Point, Pose, Quaternion
-from .normals import adaptive_normals, grid_normals
+from .normals import adaptive_normals, grid_normals, no_surface
 from .tracking import IdentityTracker
 from .vec import dot3
 
@@ -123,6 +123,8 @@ class ShapeDetector(CloudDetector):
             valid = cloud.count_valid()
             self._last_reason = (f"too few points: {points.shape[0]} with normals (of {valid} valid) < min_inliers "
                                  f"{p.min_inliers}")
+            why = no_surface(cloud.points[cloud.valid_mask()]) if points.shape[0] == 0 else ""
+            self._last_reason += f"; {why}, no surface to fit" if why else ""
             return []
         settings = ShapeSettings(
             shape="cylinder", min_radius=p.min_radius, max_radius=p.max_radius,

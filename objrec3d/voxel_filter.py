@@ -14,12 +14,26 @@ from .cloud import PointCloud, as_cloud
 
 def voxel_groups(points: np.ndarray, leaf: float) -> tuple[np.ndarray, int]:
     """For each of ``points`` (finite, M x 3), the number of its voxel (0..K-1), and K."""
-    keys = np.floor(points / leaf).astype(np.int64)
-    keys -= keys.min(axis=0)
-    span = keys.max(axis=0) + 1
-    flat = (keys[:, 0] * span[1] + keys[:, 1]) * span[2] + keys[:, 2]
-    _, inverse = np.unique(flat, return_inverse=True)
-    return inverse.reshape(-1), int(inverse.max()) + 1 if inverse.size else 0
+    return cell_groups(np.floor(points / leaf))
+
+
+def cell_groups(cells: np.ndarray) -> tuple[np.ndarray, int]:
+    """For each row of whole-numbered cell coordinates (float, M x 3), the number of its cell (0..K-1), and K.
+
+    One int64 key per cell where the cells' span allows it (fast); otherwise (a cloud kilometres across in
+    millimetre cells, absurd coordinates) the rows are compared whole, which no span can overflow."""
+    if cells.shape[0] == 0:
+        return np.zeros(0, dtype=np.int64), 0
+    cells = cells - cells.min(axis=0)
+    span = cells.max(axis=0) + 1
+    if float(span[0]) * float(span[1]) * float(span[2]) < 2.0**62:
+        keys = cells.astype(np.int64)
+        width = span.astype(np.int64)
+        _, inverse = np.unique((keys[:, 0] * width[1] + keys[:, 1]) * width[2] + keys[:, 2], return_inverse=True)
+    else:
+        _, inverse = np.unique(cells, axis=0, return_inverse=True)
+    inverse = inverse.reshape(-1)
+    return inverse, int(inverse.max()) + 1
 
 
 class VoxelFilter(CloudFilter):

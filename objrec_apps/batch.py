@@ -6,10 +6,10 @@ processes is started by default, or the work goes to an existing Dask scheduler.
 source) is printed and written as ``summary.csv``; a source that fails is a row saying why, never the end
 of the batch.
 
-Exit codes: 0 every source done; 1 some source failed (or the summary could not be written); 2 a user
-mistake (bad parameter file, option or output folder, no sources, unreachable scheduler); 130 interrupted
-(Ctrl-C or SIGTERM: running sources stop after their current frame, the others are cancelled, and the
-summary so far is written).
+Exit codes: 0 every source done; 1 some source failed (its row says why); 2 a user mistake (bad parameter
+file, option out of its range, output folder, no sources, unreachable scheduler, a bad OBJREC_MAX_* variable)
+or a summary that cannot be written; 130 interrupted (Ctrl-C or SIGTERM: running sources stop after their
+current frame, the others are cancelled, and the summary so far is written).
 """
 
 from __future__ import annotations
@@ -31,7 +31,7 @@ from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from types import FrameType
-from typing import IO, Any, NoReturn
+from typing import IO, Any
 
 from objrec_core import (
     DetectionDirector,
@@ -44,10 +44,11 @@ from objrec_core import (
     get_kind,
     source_types,
 )
-from strictio import OutputError, write_atomically
+from strictio import InputError, OutputError, write_atomically
+from strictio.cli_numbers import CommandLineParser, Number, check_limit_settings
 
 from .batch_worker import CANCELLED, FAILED, FORMATS, STOPPED, SourceResult, one_line, output_names, run_source
-from .cli import USER_ERROR, UserError, configure_logging, report
+from .cli import MAX_FRAMES, USER_ERROR, UserError, configure_logging, report
 from .outputs import check_topic, default_topic, require_rosbags
 
 log = logging.getLogger("objrec.batch")
@@ -70,23 +71,8 @@ ALLOWED_FAILURES = 1
 STOP_SECONDS = 20.0
 #: How long to wait for an existing scheduler to answer.
 CONNECT_TIMEOUT = "10s"
-
-
-class _Parser(argparse.ArgumentParser):
-    """argparse, but a bad option is one line (and exit code 2) like every other user mistake."""
-
-    def error(self, message: str) -> NoReturn:
-        self.exit(USER_ERROR, f"{self.prog}: error: {message} (see --help)\n")
-
-
-def _positive(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a whole number, got {text!r}") from None
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"must be at least 1, got {value}")
-    return value
+#: Worker processes of a local cluster: each is a whole interpreter with the libraries loaded.
+WORKERS = Number(1, 256, whole=True)
 
 
 def default_workers() -> int:
@@ -98,7 +84,7 @@ def default_workers() -> int:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = _Parser(
+    parser = CommandLineParser(
         prog=PROG,
         description="Run a parameter file's system over many sources in parallel on Dask: one output per\n"
         "source in DIR, and a summary table (on stdout and as DIR/summary.csv).",
@@ -123,14 +109,16 @@ exit codes:
     parser.add_argument("sources", metavar="SOURCE", nargs="+", help="recordings to run the system over")
     parser.add_argument("--out", "-o", metavar="DIR", required=True,
                         help="folder for the outputs (<source name>.jsonl or .mcap) and summary.csv; made if missing")
-    parser.add_argument("--workers", "-w", type=_positive, metavar="N",
+    parser.add_argument("--workers", "-w", type=WORKERS, metavar="N",
                         help="worker processes of the local cluster, one thread each "
-                        f"(default: the cores available, {default_workers()} here, at most one per source)")
+                        f"(default: the cores available, {default_workers()} here, at most one per source; "
+                        f"{WORKERS.describe()})")
     parser.add_argument("--scheduler", metavar="ADDRESS",
                         help="run on an existing Dask scheduler (tcp://host:8786) instead of a local cluster")
     parser.add_argument("--format", "-f", choices=tuple(FORMATS), default="jsonl",
                         help="output format: JSON Lines (default) or MCAP typed messages (needs the ros extra)")
-    parser.add_argument("--max-frames", "-n", type=_positive, metavar="N", help="at most N frames of each source")
+    parser.add_argument("--max-frames", "-n", type=MAX_FRAMES, metavar="N",
+                        help=f"at most N frames of each source ({MAX_FRAMES.describe()})")
     parser.add_argument("--output-topic", metavar="TOPIC",
                         help="topic of the MCAP messages (default: /objrec/<object name>)")
     parser.add_argument("--frame-id", default="camera",
@@ -499,7 +487,7 @@ def run(args: argparse.Namespace, stdout: IO[str]) -> int:
         write_atomically(plan.out_dir / SUMMARY, summary_csv(outcome.results))
     except OutputError as exc:
         report(PROG, exc)
-        code = code or EXIT_FAILED
+        code = USER_ERROR if code != EXIT_INTERRUPTED else code
     try:
         stdout.write(format_table(outcome.results))
         stdout.flush()
@@ -511,14 +499,16 @@ def run(args: argparse.Namespace, stdout: IO[str]) -> int:
 
 
 def main(argv: list[str] | None = None) -> int:
-    args = build_parser().parse_args(argv)
-    configure_logging(PROG, args.verbose)
     try:
+        args = build_parser().parse_args(argv)
+        configure_logging(PROG, args.verbose)
+        check_limit_settings()
         return run(args, sys.stdout)
-    except UserError as exc:
+    except (UserError, InputError, OutputError) as exc:
         report(PROG, exc)
         return USER_ERROR
     except KeyboardInterrupt:  # before any work started
+        sys.stderr.write(f"{PROG}: interrupted while starting\n")
         return EXIT_INTERRUPTED
 
 

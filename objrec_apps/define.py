@@ -27,8 +27,11 @@ from objrec_core import (
     build_system,
     source_kinds,
 )
+from strictio import InputError, OutputError
+from strictio.cli_numbers import CommandLineParser, check_limit_settings
 
 from .cli import USER_ERROR, UserError, configure_logging, report
+from .launch import ending_at_once
 
 PROG = "objrec-define"
 #: The shipped starting systems (package data in objrec_apps/systems/), by the name given on the command line.
@@ -44,7 +47,7 @@ def starting_system(name: str) -> RecognitionSystem:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
+    parser = CommandLineParser(
         prog=PROG,
         description="Tune a recognition pipeline on live data and save the parameter file objrec-detect runs.",
     )
@@ -180,11 +183,15 @@ def run(args: argparse.Namespace) -> int:
 
 
 def main(argv: list[str] | None = None) -> int:
-    args = build_parser().parse_args(argv)
-    configure_logging(PROG, args.verbose)
     try:
-        return run(args)
-    except UserError as exc:
+        args = build_parser().parse_args(argv)
+        configure_logging(PROG, args.verbose)
+        check_limit_settings()
+        # Until the window takes Ctrl-C over (closing as File>Quit would), there is nothing to save, and an
+        # interrupt inside Qt's start-up would leave its threads hanging: end at once instead.
+        with ending_at_once(PROG, (signal.SIGINT,)):
+            return run(args)
+    except (UserError, InputError, OutputError) as exc:
         report(PROG, exc)
         return USER_ERROR
     except KeyboardInterrupt:

@@ -2,16 +2,16 @@
 them as typed ROS messages into an MCAP file, a ROS 1 bag or a ROS 2 bag folder (``--output``).
 
 Exit codes: 0 done (also after Ctrl-C or SIGTERM, with everything written so far flushed and a typed
-output completed); 1 a failure while running (a source that breaks mid-stream, a full disk under a JSON
-Lines output); 2 a user mistake (bad parameter file, option, or a source that cannot be opened or yields
-not even one frame, a detector that cannot detect, such as a feature detector without a target) and any
-typed output that cannot be written (it is then left out entirely).
+output completed); 1 a source that breaks mid-stream; 2 a user mistake (bad parameter file, option out of
+its range, a source that cannot be opened or yields not even one frame, an input refused anywhere in the run
+such as a frame over a declared limit, a detector that cannot detect, such as a feature detector without a
+target) and any output that cannot be written (a full disk, a closed device; a typed output that cannot be
+written is left out entirely, what the other outputs got so far is kept); 130 interrupted while starting.
 """
 
 from __future__ import annotations
 
 import argparse
-import contextlib
 import logging
 import os
 import signal
@@ -39,19 +39,22 @@ from objrec_core import (
     open_source,
 )
 from rerunio import RerunUnavailable
-from strictio import OutputError
+from strictio import InputError, OutputError
+from strictio.cli_numbers import CommandLineParser, check_limit_settings
 
 from . import explain, outputs
 from .annotation_writer import AnnotationError, AnnotationWriter
-from .cli import USER_ERROR, UserError, configure_logging, open_text_output, report
+from .cli import MAX_FRAMES, USER_ERROR, UserError, configure_logging, open_text_output, report
 from .rerun_log import open_rerun
 
 log = logging.getLogger("objrec.detect")
 PROG = "objrec-detect"
+#: Exit code after Ctrl-C before the run loop took over.
+INTERRUPTED = 130
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
+    parser = CommandLineParser(
         prog=PROG,
         description="Detect objects with a parameter file made by objrec-define; one JSON line per frame, or "
         "typed ROS messages in an MCAP file or a bag.",
@@ -74,7 +77,8 @@ def build_parser() -> argparse.ArgumentParser:
                         "topic with its CameraInfo and colour topics), so the output replays with its detections")
     parser.add_argument("--list-topics", metavar="SOURCE",
                         help="print the topics, types and message counts of a bag or MCAP file, and exit")
-    parser.add_argument("--max-frames", "-n", type=int, metavar="N", help="stop after N frames")
+    parser.add_argument("--max-frames", "-n", type=MAX_FRAMES, metavar="N",
+                        help=f"stop after N frames ({MAX_FRAMES.describe()})")
     parser.add_argument("--frame-id", default="camera",
                         help="frame_id written in headers when the source gives none (default: camera)")
     parser.add_argument(
@@ -153,8 +157,6 @@ class PictureSink:
 
 
 def _open(args: argparse.Namespace) -> tuple[DetectionDirector, FrameSource, Kind]:
-    if args.max_frames is not None and args.max_frames < 1:
-        raise UserError(f"--max-frames must be at least 1, got {args.max_frames}")
     try:
         system = build_system(args.params)
     except ParameterFileError as exc:
@@ -242,6 +244,7 @@ def run(args: argparse.Namespace, stdout: IO[str]) -> int:
     recorder = None
     reasons = None
     status = 0
+    keep_typed = True  # a typed output is completed with what it got, unless it failed itself or got nothing
     try:
         if args.explain is not None:
             reasons = explain.Explainer(args.explain)
@@ -275,36 +278,41 @@ def run(args: argparse.Namespace, stdout: IO[str]) -> int:
         log.warning("interrupted after %d frames", director.stats.frames)
     except BrokenPipeError:
         raise
-    except (SourceError, AnnotationError) as exc:
+    except SourceError as exc:
         report(PROG, exc)
         status = 2 if director.stats.frames == 0 else 1  # nothing read at all: the source itself is bad
-    except OutputError as exc:  # a typed output that cannot be written: it is left out entirely
+        keep_typed = status != 2
+    except AnnotationError as exc:  # the pictures cannot be written: the other outputs keep what they got
         report(PROG, exc)
         status = 2
+    except InputError as exc:  # an input refused mid-run (a frame over a limit): what was written is kept
+        report(PROG, exc)
+        status = 2
+        keep_typed = director.stats.frames > 0
+    except OutputError as exc:  # an output that cannot be written; a typed one is then left out entirely
+        report(PROG, exc)
+        status = 2
+        keep_typed = typed is not None and _other_output(exc.path, args)
     except explain.ExplainWriteError as exc:
         report(PROG, exc)
-        status = reasons.exit_status() if reasons is not None else 1
+        status = 2
     except OSError as exc:  # the output went away: a full disk, a closed device
         report(PROG, f"writing {args.output or 'the output'}: {exc.strerror or exc}")
-        status = 1
+        status = 2
     except BaseException:  # a user mistake found late or an unexpected error: no half-written typed output
         if typed is not None:
             typed.abort()
         raise
     finally:
-        if writer is not None:
-            writer.close()
-        if recorder is not None:
-            recorder.close()
-        if output is not None:
-            with contextlib.suppress(OSError):  # already reported above
-                output.close()
+        status = _close_output(writer, args.annotate, status)
+        status = _close_output(recorder, args.rerun, status)
+        status = _close_output(output, args.output, status)
         status = _close_reasons(reasons, status)
         source.close()
         for sig, handler in previous.items():
             signal.signal(sig, handler)
     if typed is not None:
-        status = _finish_typed(typed, keep=status != 2, status=status)
+        status = _finish_typed(typed, keep=keep_typed, status=status)
     if status:
         return status
     stats = director.stats
@@ -317,6 +325,25 @@ def run(args: argparse.Namespace, stdout: IO[str]) -> int:
     return 0
 
 
+def _close_output(output: Any, path: str | None, status: int) -> int:
+    """Close one output; a failure there (the last buffered bytes, a video's index) is exit code 2, reported
+    unless the run already failed and said so."""
+    if output is None:
+        return status
+    failure: object
+    try:
+        output.close()
+    except (OutputError, AnnotationError) as exc:  # these name their file
+        failure = exc
+    except OSError as exc:
+        failure = f"writing {path}: {exc.strerror or exc}"
+    else:
+        return status
+    if not status:
+        report(PROG, failure)
+    return USER_ERROR
+
+
 def _close_reasons(reasons: explain.Explainer | None, status: int) -> int:
     """Close the side file of reasons; a failure that was not reported yet is reported now."""
     if reasons is None:
@@ -326,8 +353,15 @@ def _close_reasons(reasons: explain.Explainer | None, status: int) -> int:
     except explain.ExplainWriteError as exc:
         if not status:  # else the run already failed, and said so
             report(PROG, exc)
-            return reasons.exit_status()
+            return USER_ERROR
     return status
+
+
+def _other_output(path: str, args: argparse.Namespace) -> bool:
+    """Whether a failed write at ``path`` was one of the side outputs (pictures, recording), not --output."""
+    failed = Path(path).resolve()
+    sides = [Path(side).resolve() for side in (args.annotate, args.rerun) if side]
+    return any(failed == side or failed.is_relative_to(side) for side in sides)
 
 
 def _finish_typed(typed: Any, keep: bool, status: int) -> int:
@@ -339,25 +373,38 @@ def _finish_typed(typed: Any, keep: bool, status: int) -> int:
     try:
         typed.close()
     except OutputError as exc:
-        report(PROG, exc)
-        return 2
+        if not status:  # else the run already failed, and said so in its one line
+            report(PROG, exc)
+        return USER_ERROR
     return status
 
 
 def main(argv: list[str] | None = None) -> int:
+    try:
+        return _main(argv)
+    except KeyboardInterrupt:  # before the run loop took Ctrl-C over (building the system, opening the source)
+        sys.stderr.write(f"{PROG}: interrupted while starting\n")
+        return INTERRUPTED
+
+
+def _main(argv: list[str] | None) -> int:
     parser = build_parser()
     args = parser.parse_args(explain.bare_option_to_stderr(sys.argv[1:] if argv is None else argv))
     if not args.list_topics and (args.params is None or args.source is None):
         parser.error("PARAMS_FILE and --source are required (except with --list-topics)")
     configure_logging(PROG, args.verbose)
     try:
+        check_limit_settings()
         return run(args, sys.stdout)
     except UserError as exc:
         report(PROG, exc)
         return USER_ERROR
     except PipelineError as exc:
         report(PROG, f"{args.params}: {exc}")
-        return 2
+        return USER_ERROR
+    except (InputError, OutputError) as exc:  # before the run loop: a reader's, a limit's or a writer's
+        report(PROG, exc)
+        return USER_ERROR
     except BrokenPipeError:  # the reader went away (e.g. `| head`): not an error
         devnull = os.open(os.devnull, os.O_WRONLY)
         os.dup2(devnull, sys.stdout.fileno())  # so the interpreter's final flush stays quiet

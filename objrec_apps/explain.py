@@ -2,9 +2,9 @@
 
 The reasons come from an outcome sink of the DetectionDirector (:class:`objrec_core.explain.ReasonSink`);
 this module only chooses where they go. The side file is streamed like a JSON Lines ``--output`` (opened by
-the same helper, flushed per line so it can be followed live); a side file that cannot take even its first
-line is a target that cannot be written (exit code 2, as for ``--annotate``), one that fails later a failure
-while running (exit code 1).
+the same helper, flushed per line so it can be followed live); a side file that cannot be written, at its
+first line or later, is an output that cannot be written: one error line and exit code 2, as for every output,
+with the lines written before it kept.
 """
 
 from __future__ import annotations
@@ -14,6 +14,7 @@ from collections.abc import Sequence
 from typing import IO
 
 from objrec_core.explain import ReasonSink
+from strictio import OutputError
 
 from .cli import open_text_output
 
@@ -53,18 +54,24 @@ class _SideFile:
     def write(self, text: str) -> int:
         try:
             return self.stream.write(text)
+        except OutputError:
+            raise  # already names the file and keeps whole lines
         except OSError as exc:
             raise ExplainWriteError(self.path, exc) from None
 
     def flush(self) -> None:
         try:
             self.stream.flush()
+        except OutputError:
+            raise  # already names the file and keeps whole lines
         except OSError as exc:
             raise ExplainWriteError(self.path, exc) from None
 
     def close(self) -> None:
         try:
             self.stream.close()
+        except OutputError:
+            raise  # already names the file and keeps whole lines
         except OSError as exc:
             raise ExplainWriteError(self.path, exc) from None
 
@@ -79,10 +86,6 @@ class Explainer:
     @property
     def to_stderr(self) -> bool:
         return self._side is None
-
-    def exit_status(self) -> int:
-        """After a write error: 2 where not one line got through (a target that cannot be written), else 1."""
-        return 2 if self.sink.lines == 0 else 1
 
     def close(self) -> None:
         """Close the side file; a failure here (the last buffered bytes) is an ExplainWriteError too."""

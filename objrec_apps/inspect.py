@@ -4,8 +4,9 @@ The robot visits the mission's poses, runs the tasks there (wait, photo, look_ar
 parameter file) on its simulated RGB-D camera, and reports per visit what it found where and whether each
 expected object is present, absent or moved. Output folder (``--out``): ``events.jsonl``, ``report.json``,
 ``report.md``, ``map.png`` and ``photos/``. The summary goes to stdout, diagnostics to stderr; a file that
-cannot be used is one error line naming the file and the field, exit code 2. Ctrl-C (also during start-up)
-ends the patrol in SHUTDOWN and writes the report so far, exit code 0; a second Ctrl-C gives up (130).
+cannot be used, an option's value out of its declared range or an output that cannot be written is one error
+line naming the file (or option) and why, exit code 2. Ctrl-C or SIGTERM (also during start-up) ends the patrol
+in SHUTDOWN and writes the report so far, exit code 0; a second one gives up (130).
 """
 
 from __future__ import annotations
@@ -17,11 +18,23 @@ from collections.abc import Sequence
 from dataclasses import replace
 from pathlib import Path
 
-from navigation.cli import StartupSigint, format_summary
+from navigation.cli import (
+    COORDINATE,
+    LAPS,
+    ODOM_NOISE,
+    SEED,
+    TIME_LIMIT,
+    TIME_STEP,
+    YAW,
+    StartupSigint,
+    format_summary,
+)
 from navigation.diagram import write_diagram
 from navigation.geometry import Pose2D
 from navigation.localization import LOCALIZATION_MODES
 from navigation.simulation import SimConfig
+from strictio import InputError, OutputError
+from strictio.cli_numbers import CommandLineParser, Number, check_limit_settings, fields
 
 from .cli import USER_ERROR, configure_logging, report
 from .inspection import Inspection, InspectionError, open_inspection
@@ -30,15 +43,12 @@ log = logging.getLogger("objrec.inspect")
 PROG = "objrec-inspect"
 
 
-def _positive(text: str) -> float:
-    value = float(text)
-    if not value > 0 or value == float("inf"):
-        raise argparse.ArgumentTypeError(f"must be a positive number, got {text}")
-    return value
+#: How far --shift may move an object, in metres.
+SHIFT = Number(-1000, 1000)
 
 
 def build_parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(
+    p = CommandLineParser(
         prog=PROG,
         description="Drive the poses of a mission in a simulated world, run its tasks with the robot's RGB-D "
                     "camera (wait, photo, look_around, detect) and report, per visit, the objects found with "
@@ -48,41 +58,34 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--world", required=True, metavar="WORLD_YAML", help="world file: objects and obstacles")
     p.add_argument("--out", default="inspection", metavar="DIR",
                    help="output folder: events.jsonl, report.json, report.md, map.png, photos/ (default inspection)")
-    p.add_argument("--laps", type=int, metavar="N", help="laps of the poses (default: the mission's, else 1)")
-    p.add_argument("--time-limit", type=_positive, metavar="SECONDS", help="preempt after this much simulated time")
-    p.add_argument("--start", nargs=3, type=float, metavar=("X", "Y", "YAW"),
-                   help="start pose (default: the pose file's station pose, else the first pose)")
+    p.add_argument("--laps", type=LAPS, metavar="N",
+                   help=f"laps of the poses (default: the mission's, else 1; {LAPS.describe()})")
+    p.add_argument("--time-limit", type=TIME_LIMIT, metavar="SECONDS", help="preempt after this much simulated time")
+    p.add_argument("--start", nargs=3, action=fields(COORDINATE, COORDINATE, YAW), metavar=("X", "Y", "YAW"),
+                   help="start pose, metres and radians (default: the pose file's station pose, else the first "
+                        "pose)")
     change = p.add_argument_group("a world different from the world file (to try the absent and moved reports)")
     change.add_argument("--remove", action="append", default=[], metavar="NAME",
                         help="the robot meets the world without this object (repeatable)")
-    change.add_argument("--shift", action="append", nargs=3, default=[], metavar=("NAME", "DX", "DY"),
+    change.add_argument("--shift", action=fields(None, SHIFT, SHIFT, append=True), nargs=3, default=[],
+                        metavar=("NAME", "DX", "DY"),
                         help="the robot meets this object shifted by DX, DY metres (repeatable)")
     sim = p.add_argument_group("simulation")
-    sim.add_argument("--seed", type=int, default=0, help="random seed for sensor noise (default 0)")
-    sim.add_argument("--odom-noise", type=float, default=0.0, metavar="FRACTION",
-                     help="relative odometry noise per step, e.g. 0.05 (default 0)")
+    sim.add_argument("--seed", type=SEED, default=0,
+                     help=f"random seed for sensor noise (default 0; {SEED.describe()})")
+    sim.add_argument("--odom-noise", type=ODOM_NOISE, default=0.0, metavar="FRACTION",
+                     help=f"relative odometry noise per step, e.g. 0.05 (default 0; {ODOM_NOISE.describe()})")
     sim.add_argument("--localization", choices=LOCALIZATION_MODES, default="exact",
                      help="what the robot drives on and places objects with (default exact; amcl with noise)")
-    sim.add_argument("--dt", type=_positive, default=0.1, metavar="SECONDS", help="time step (default 0.1)")
+    sim.add_argument("--dt", type=TIME_STEP, default=0.1, metavar="SECONDS",
+                     help=f"time step (default 0.1; {TIME_STEP.describe()})")
     sim.add_argument("--realtime", action="store_true", help="run at wall-clock speed instead of flat out")
     p.add_argument("--diagram", metavar="PATH", help="Mermaid diagram of the machine with the mission's states")
     p.add_argument("-v", "--verbose", action="store_true", help="log progress on stderr")
     return p
 
 
-def _shifts(raw: list[list[str]]) -> list[tuple[str, float, float]]:
-    shifts = []
-    for name, dx, dy in raw:
-        try:
-            shifts.append((name, float(dx), float(dy)))
-        except ValueError:
-            raise InspectionError(f"--shift {name} {dx} {dy}: DX and DY must be numbers") from None
-    return shifts
-
-
 def _open(args: argparse.Namespace) -> Inspection:
-    if args.laps is not None and args.laps < 1:
-        raise InspectionError(f"--laps must be at least 1, got {args.laps}")
     out = Path(args.out)
     try:
         out.mkdir(parents=True, exist_ok=True)
@@ -90,7 +93,8 @@ def _open(args: argparse.Namespace) -> Inspection:
         raise InspectionError(f"{out}: cannot be created: {exc.strerror or exc}") from None
     config = replace(SimConfig(), dt=args.dt, seed=args.seed, odom_linear_noise=args.odom_noise,
                      odom_angular_noise=args.odom_noise, localization=args.localization)
-    return open_inspection(args.mission, args.map, args.world, remove=args.remove, shift=_shifts(args.shift),
+    return open_inspection(args.mission, args.map, args.world, remove=args.remove,
+                           shift=[(name, dx, dy) for name, dx, dy in args.shift],
                            config=config, start=Pose2D(*args.start) if args.start else None, laps=args.laps,
                            out_dir=out)
 
@@ -114,8 +118,10 @@ def run(args: argparse.Namespace, early: StartupSigint) -> int:
         sim.events.open(out / "events.jsonl")
         sim.events.keep = False
         if early.count:
-            machine.request_preempt("SIGINT")  # Ctrl-C came during start-up
+            machine.request_preempt(early.reason)  # Ctrl-C or SIGTERM came during start-up
         summary = inspection.run(time_limit=args.time_limit, realtime=args.realtime)
+    except OutputError:
+        raise  # already names its file
     except OSError as exc:
         raise InspectionError(f"{exc.filename or out}: cannot be written: {exc.strerror or exc}") from None
     finally:
@@ -127,12 +133,13 @@ def run(args: argparse.Namespace, early: StartupSigint) -> int:
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    args = build_parser().parse_args(argv)
-    configure_logging(PROG, args.verbose)
     try:
-        with StartupSigint() as early:
+        with StartupSigint() as early:  # from the first moment: a Ctrl-C while parsing counts too
+            args = build_parser().parse_args(argv)
+            configure_logging(PROG, args.verbose)
+            check_limit_settings()
             return run(args, early)
-    except InspectionError as exc:
+    except (InspectionError, InputError, OutputError) as exc:  # a reader's, a limit's or a writer's, from anywhere
         report(PROG, exc)
         return USER_ERROR
     except KeyboardInterrupt:

@@ -28,6 +28,7 @@ import numpy as np
 
 from objrec_core import DetectedObjectArray, Frame, FrameKindError, Kind, RecognitionSystem, Stage
 from rerunio import VIEWER_PORT, import_rerun, open_stream
+from strictio import OutputError
 
 log = logging.getLogger(__name__)
 
@@ -105,6 +106,9 @@ class RerunRecorder:
     own logging. ``stats/objects`` is the number of objects found in the frame.
     """
 
+    #: Where the recording goes, as the user named it (for error messages).
+    target = "the Rerun recording"
+
     def __init__(self, recording: Any, kind: Kind) -> None:
         import rerun as rr
 
@@ -179,8 +183,11 @@ class RerunRecorder:
         if self._closed:
             return
         self._closed = True
-        self.recording.flush()
-        self.recording.disconnect()
+        try:
+            self.recording.flush()
+            self.recording.disconnect()
+        except Exception as exc:  # rerun reports a full disk or a lost viewer as a RuntimeError
+            raise OutputError(self.target, f"cannot be written: {exc}") from None
 
     def __enter__(self) -> RerunRecorder:
         return self
@@ -201,4 +208,6 @@ def open_rerun(target: str | os.PathLike[str], kind: Kind, system: RecognitionSy
     stage_ids = [m.id for m in system.filters] if system is not None else []
     blueprint = detection_blueprint(kind, stage_ids)
     stream = open_stream(target, "objrec", blueprint, port)
-    return RerunRecorder(stream, kind)
+    recorder = RerunRecorder(stream, kind)
+    recorder.target = str(target)
+    return recorder

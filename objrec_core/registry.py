@@ -17,9 +17,12 @@ from __future__ import annotations
 
 import functools
 import logging
+import stat
 import threading
 from importlib.metadata import EntryPoint, entry_points
 from typing import Any, TypeVar
+
+from strictio.opener import describe_mode
 
 from .kinds import Kind
 from .parametrizable import Parametrizable
@@ -245,6 +248,12 @@ def open_source(text: str, kind: str | None = None) -> FrameSource:
         get_kind(kind)  # an unknown kind is an error of its own
     every = source_types()
     spec = SourceSpec.parse(text, {s for t in every for s in t.schemes})
+    if spec.path is not None and spec.path.exists() and not (spec.path.is_file() or spec.path.is_dir()):
+        # a FIFO would block a reader forever and a device never ends: no source type is asked about it
+        mode = spec.path.stat().st_mode
+        cameras = any("camera" in t.schemes for t in every)
+        hint = " (for a camera, give camera:N)" if stat.S_ISCHR(mode) and cameras else ""
+        raise SourceError(f"{spec.text}: is {describe_mode(mode)}, not a regular file{hint}")
     score, chosen = _choose(spec, [t for t in every if kind is None or t.kind == kind])
     what = f"{kind} " if kind else ""
     if kind is not None and score < 2:  # a fallback match loses to another kind's own extension

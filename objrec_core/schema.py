@@ -12,6 +12,7 @@ from pathlib import Path
 from typing import Any
 
 from strictio import InputError, YAMLLimits, read_yaml
+from strictio.errors import escape_controls
 
 from .modules import Detector
 from .parameters import ParameterError, printable, short_repr
@@ -26,14 +27,18 @@ PARAMETER_FILE_LIMITS = YAMLLimits(max_bytes=32 * 1024 * 1024, max_depth=32)
 
 
 class ParameterFileError(Exception):
-    """What is wrong with a parameter file: the file, the key path and the problem."""
+    """What is wrong with a parameter file: the file, the key path and the problem.
+
+    The text is one line whatever the file holds: control characters in names and values are shown escaped
+    (``\\n``, ``\\x1b``), so a key cannot split the message or send a terminal its codes.
+    """
 
     def __init__(self, path: str | os.PathLike[str], key_path: str, message: str) -> None:
         self.path = str(path)
         self.key_path = key_path
         self.message = message
         where = f"{self.path}: {key_path}" if key_path else self.path
-        super().__init__(f"{where}: {message}")
+        super().__init__(escape_controls(f"{where}: {message}"))
 
 
 @dataclass

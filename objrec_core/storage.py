@@ -23,6 +23,16 @@ from .schema import FORMAT_VERSION, ParameterDocument, ParameterFileError, read_
 from .system import PipelineError, RecognitionSystem
 
 
+class ParameterSaveError(ParameterFileError, OutputError):
+    """A parameter file that cannot be saved (a full disk, a read-only file, a device at the path): both a
+    ParameterFileError, as the GUI expects of its files, and a ``strictio.OutputError``, as every command
+    maps to exit code 2. Whatever was at the path is untouched."""
+
+    def __init__(self, path: str | os.PathLike[str], message: str) -> None:
+        OutputError.__init__(self, path, message)
+        self.key_path = ""
+
+
 class Opened(Enum):
     """What ``ParameterStorage.open`` did with the pipeline."""
 
@@ -72,7 +82,10 @@ class ParameterStorage:
         return yaml.safe_dump(self.to_document(), sort_keys=False, allow_unicode=True, width=100)
 
     def save_parameters(self, path: str | os.PathLike[str]) -> None:
-        """Write the file atomically: a temporary file in the same folder, then ``os.replace``."""
+        """Write the file atomically: a temporary file in the same folder, then ``os.replace``.
+
+        A failure to write is a ParameterSaveError; a system that cannot be saved (an empty pipeline, a value
+        YAML cannot hold) a ParameterFileError."""
         path = Path(path)
         if not self.system.modules:
             raise ParameterFileError(path, "pipeline", "the pipeline is empty; add a module before saving")
@@ -85,7 +98,7 @@ class ParameterStorage:
         try:
             write_atomically(path, text)
         except OutputError as exc:
-            raise ParameterFileError(path, "", exc.message) from None
+            raise ParameterSaveError(path, exc.message) from None
 
     # -- loading -----------------------------------------------------------------------------------------
     def open(self, path: str | os.PathLike[str]) -> Opened:

@@ -14,6 +14,9 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
+from strictio import CLOUD_POINTS, LimitError
+from strictio.limits import check
+
 IMAGE = "sensor_msgs/msg/Image"
 COMPRESSED_IMAGE = "sensor_msgs/msg/CompressedImage"
 POINT_CLOUD2 = "sensor_msgs/msg/PointCloud2"
@@ -172,14 +175,18 @@ def pointcloud2_arrays(message: Any) -> CloudArrays:
     if n == 0:
         empty = np.empty((0, 3), dtype=np.float32)
         return CloudArrays(empty, None, 0, 1)
+    try:  # before anything is allocated for the points
+        check("PointCloud2", CLOUD_POINTS, n, f"{width} x {height} PointCloud2")
+    except LimitError as exc:
+        raise DecodeError(exc.message) from None
     if point_step <= 0:
         raise DecodeError(f"point_step {point_step} is not positive")
     row = width * point_step
     if row_step < row:
         raise DecodeError(f"row_step {row_step} is shorter than a row of {width} points of {point_step} bytes")
+    rows = _rows(_buffer(message.data), height, row_step, row, f"{width} x {height} PointCloud2")
     layout = np.dtype({"names": names, "formats": formats, "offsets": [fields[n][0] for n in names],
                        "itemsize": point_step})
-    rows = _rows(_buffer(message.data), height, row_step, row, f"{width} x {height} PointCloud2")
     table = np.ascontiguousarray(rows).reshape(-1).view(layout)
     points = np.empty((n, 3), dtype=np.float32)
     for axis, name in enumerate(("x", "y", "z")):

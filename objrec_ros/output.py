@@ -6,8 +6,9 @@ stamp. The format follows the path: ``.mcap`` a single MCAP file (ROS 2 CDR mess
 ``mcap`` reader both open it as it is), ``.bag`` a ROS 1 bag, a path without suffix (or an existing folder)
 a ROS 2 bag folder with MCAP storage. ROS 2 headers have no ``seq``; ROS 1 headers keep it.
 
-Everything is written under a hidden temporary name next to the target and moved into place by ``close``:
-the output is complete or absent, never half written. With ``copy_from`` the writer also copies the topics of
+Everything is written under a hidden temporary name next to the target (one a later writer recognises and
+removes if this process was killed) and moved into place by ``close``: the output is complete or absent,
+never half written. With ``copy_from`` the writer also copies the topics of
 an input recording (its raw messages, type and connection) so the output replays with its detections.
 """
 
@@ -19,7 +20,6 @@ import math
 import os
 import shutil
 import stat
-import tempfile
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
@@ -40,6 +40,7 @@ from rosbags.typesys.store import Typestore
 
 from objrec_core import DetectedObjectArray
 from strictio import OutputError
+from strictio.atomic import is_read_only, remove_stale_temporaries, temporary_path
 
 from .msgdefs import MessageDefinitionError, message_from_dict, register_definitions, standard_typestore
 
@@ -145,7 +146,7 @@ class DetectionWriter:
                                               "empty folder (or a bag folder to replace)")
         elif not stat.S_ISREG(info.st_mode):
             raise OutputError(self.shown, "exists and is not a regular file")
-        elif not os.access(target, os.W_OK):
+        elif is_read_only(target, info):
             raise OutputError(self.shown, "cannot be written: the file is read-only")
         return target
 
@@ -153,7 +154,9 @@ class DetectionWriter:
         folder = self._target.parent
         try:
             folder.mkdir(parents=True, exist_ok=True)
-            self._tmpdir = Path(tempfile.mkdtemp(prefix=f".{self._target.name}.", suffix=".tmp", dir=folder))
+            remove_stale_temporaries(folder)  # of writers killed before they could clean up
+            self._tmpdir = temporary_path(self._target)
+            self._tmpdir.mkdir(mode=0o700)
             inner = self._tmpdir / (self._target.stem if self.format == MCAP else self._target.name)
             if self.format == ROS1_BAG:
                 self._writer = Writer1(inner)

@@ -39,6 +39,9 @@ class RerunUnavailable(RuntimeError):
 
 
 def import_rerun() -> Any:
+    # rerun's own log lines (a full disk as three WARN/ERROR lines) would break the commands' one-line errors:
+    # the commands report write failures themselves. RUST_LOG set by the user still wins.
+    os.environ.setdefault("RUST_LOG", "off")
     try:
         import rerun
     except ImportError as exc:

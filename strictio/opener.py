@@ -17,7 +17,7 @@ from .errors import InputError
 DEFAULT_LIMIT = 64 * 1024 * 1024
 
 
-def _describe_mode(mode: int) -> str:
+def describe_mode(mode: int) -> str:
     if stat.S_ISDIR(mode):
         return "a folder"
     if stat.S_ISFIFO(mode):
@@ -50,7 +50,7 @@ def open_input(path: str | os.PathLike[str], limit: int | None = DEFAULT_LIMIT) 
     try:
         info = os.fstat(fd)
         if not stat.S_ISREG(info.st_mode):
-            raise InputError(shown, f"is {_describe_mode(info.st_mode)}, not a regular file")
+            raise InputError(shown, f"is {describe_mode(info.st_mode)}, not a regular file")
         if limit is not None and info.st_size > limit:
             raise InputError(
                 shown, f"is {info.st_size:,} bytes, over the limit of {limit:,} bytes for this kind of file"

@@ -18,8 +18,10 @@ import cv2
 import numpy as np
 
 from objrec_core import Rect
+from strictio import InputError
 
 from ..base import as_gray
+from ..sources import decode_image
 from .geometry import rect_corners
 from .types import FeatureConfig, create_feature2d, descriptor_norm
 
@@ -169,6 +171,20 @@ def target_to_state(target: Target) -> dict[str, Any]:
     }
 
 
+def _decode_png(data: bytes) -> np.ndarray:
+    """The embedded PNG, its size checked from its header first: a parameter file of a few kilobytes may
+    claim a 20000x20000 target, which is refused before anything is allocated."""
+    if not data.startswith(b"\x89PNG\r\n\x1a\n"):
+        raise TargetError("target.image: not a readable PNG image (it does not start with the PNG signature)")
+    try:
+        image = decode_image(data, "target.image", cv2.IMREAD_UNCHANGED)
+    except InputError as exc:
+        raise TargetError(f"target.image: {exc.message}") from None
+    if image.dtype != np.uint8 or image.ndim not in (2, 3):
+        raise TargetError("target.image: not a readable 8-bit PNG image")
+    return image
+
+
 def target_from_state(state: Any, config: FeatureConfig) -> Target:
     """Decode and check a saved target, then recompute its keypoints with ``config``.
 
@@ -199,9 +215,7 @@ def target_from_state(state: Any, config: FeatureConfig) -> Target:
     data = state["image"]
     if not isinstance(data, bytes | bytearray):
         raise TargetError(f"target.image: expected PNG bytes (!!binary), found {type(data).__name__}")
-    image = cv2.imdecode(np.frombuffer(data, dtype=np.uint8), cv2.IMREAD_UNCHANGED)
-    if image is None or image.dtype != np.uint8 or image.ndim not in (2, 3):
-        raise TargetError("target.image: not a readable 8-bit PNG image")
+    image = _decode_png(bytes(data))
     roi = _rect_from_dict(state["roi"], "roi")
     rect = _rect_from_dict(state["rect"], "rect")
     if clip_rect(roi, image.shape) != roi:

@@ -227,9 +227,9 @@ def test_bags_in_a_batch(project_root: Path, tmp_path: Path) -> None:
     [
         (["missing.yaml", "demo:frames=1"], "missing.yaml: file not found"),
         (["params/hsv_demo.yaml"], "the following arguments are required: SOURCE"),
-        (["params/hsv_demo.yaml", "demo:frames=1", "-w", "0"], "argument --workers/-w: must be at least 1, got 0"),
-        (["params/hsv_demo.yaml", "demo:frames=1", "-n", "x"], "argument --max-frames/-n: expected a whole number"),
-        (["params/hsv_demo.yaml", "demo:frames=1", "--format", "csv"], "argument --format/-f: invalid choice"),
+        (["params/hsv_demo.yaml", "demo:frames=1", "-w", "0"], "--workers: 0 is below the minimum 1"),
+        (["params/hsv_demo.yaml", "demo:frames=1", "-n", "x"], "--max-frames: 'x' is not a whole number"),
+        (["params/hsv_demo.yaml", "demo:frames=1", "--format", "csv"], "--format: invalid choice"),
         (["params/hsv_demo.yaml", "demo:frames=1", "--scheduler", "nonsense://x"], "unknown address scheme"),
         (["params/hsv_demo.yaml", "demo:frames=1", "--output-topic", "/a"], "--output-topic is for --format mcap"),
         (["params/hsv_demo.yaml", "demo:frames=1,frames=2"], "option frames is given twice"),

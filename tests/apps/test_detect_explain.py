@@ -287,11 +287,12 @@ def test_a_side_file_that_cannot_be_written_is_one_line_and_exit_2(project_root,
     params = str(project_root / "params" / "feature_demo.yaml")
     code, out, err = run_main(capsys, params, "-s", str(frames), "--explain=/dev/full")
     assert code == 2
-    assert err == "objrec-detect: error: writing /dev/full: No space left on device\n"
+    assert err == ("objrec-detect: error: /dev/full: cannot be written: No space left on device; "
+                   "0 whole lines before it are kept\n")
     assert len(out.splitlines()) == 2  # the frame that failed is written to stdout before its reasons
     code, out, err = run_main(capsys, params, "-s", str(frames), f"--explain={tmp_path}")
     assert code == 2 and out == ""
-    assert err == f"objrec-detect: error: {tmp_path}: cannot be written: Is a directory\n"
+    assert err == f"objrec-detect: error: {tmp_path}: cannot be written: it is a folder\n"
     same = tmp_path / "both.jsonl"
     code, out, err = run_main(capsys, params, "-s", str(frames), "-o", str(same), f"--explain={same}")
     assert code == 2 and "the same file as --output" in err and len(err.splitlines()) == 1

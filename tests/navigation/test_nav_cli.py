@@ -157,12 +157,23 @@ def test_help_runs_as_a_module():
     assert os.linesep in result.stdout
 
 
-@pytest.mark.parametrize("option", ["--events", "--diagram"])
+@pytest.mark.parametrize("option", ["--events", "--diagram", "--render"])
 def test_unwritable_output_is_an_error_not_a_traceback(tmp_path, option, capsys):
-    target = tmp_path / "no" / "such" / "dir" / "out.md"
+    (tmp_path / "a_file").write_text("not a folder")
+    target = tmp_path / "a_file" / "dir" / "out.png"  # a folder cannot be made under a regular file
     assert main([POSES, "--map", MAP, "--laps", "1", option, str(target)]) == 2
     err = capsys.readouterr().err
-    assert err.startswith("objrec-patrol: error: ") and "out.md" in err and err.count("\n") == 1
+    assert err.startswith("objrec-patrol: error: ") and "out.png" in err and err.count("\n") == 1
+    assert (tmp_path / "a_file").read_text() == "not a folder"
+
+
+def test_missing_parent_folders_of_outputs_are_made(tmp_path, capsys):
+    out = tmp_path / "no" / "such"
+    assert main([POSES, "--map", MAP, "--laps", "1", "--events", str(out / "e" / "events.jsonl"),
+                 "--diagram", str(out / "d" / "machine.md"), "--render", str(out / "r" / "run.png")]) == 0
+    assert (out / "e" / "events.jsonl").stat().st_size > 0
+    assert "SHUTDOWN" in (out / "d" / "machine.md").read_text()
+    assert (out / "r" / "run.png").read_bytes()[:4] == b"\x89PNG"
 
 
 def test_ctrl_c_during_start_up_still_writes_the_events_and_summary(tmp_path, capsys, monkeypatch):

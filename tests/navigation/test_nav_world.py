@@ -164,8 +164,9 @@ def test_poster_images_are_capped_before_decoding(tmp_path: Path):
     header = b"\x89PNG\r\n\x1a\n" + b"\x00\x00\x00\x0dIHDR" + (100000).to_bytes(4, "big") * 2 + b"\x08\x02\x00\x00\x00"
     (tmp_path / "huge.png").write_bytes(header + b"\x00" * 64)
     (tmp_path / "text.png").write_text("not an image")
-    for name, message in (("huge.png", r"100000x100000 pixels, over the limit"),
-                          ("text.png", r"not a PNG, JPEG, BMP or PNM image")):
+    for name, message in (("huge.png", r"image of 100000x100000: 10,000,000,000 pixels, over the limit of "
+                                       r"100,000,000 pixels \(set OBJREC_MAX_IMAGE_PIXELS to raise it\)"),
+                          ("text.png", r"not a readable image \(not PNG, JPEG, BMP, TIFF, WebP")):
         text = f"objects:\n  - {{name: p, shape: poster, x: 1, y: 1, width: 1, height: 1, image: {name}}}"
         with pytest.raises(WorldError, match=rf"line 2: object 'p' \(objects\[0\]\): field 'image': .*{message}"):
             parse_world(text, tmp_path / "w.yaml")

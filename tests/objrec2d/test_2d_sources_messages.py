@@ -22,6 +22,7 @@ from objrec2d import (
 )
 from objrec_core import Header, SourceError, source_kinds
 from objrec_core import open_source as open_any_source
+from strictio import InputError
 
 
 def write_images(folder, count):
@@ -49,7 +50,7 @@ def test_single_image_and_errors(tmp_path):
     assert isinstance(source, ImageFileSource) and [f.data.shape for f in source] == [(5, 7, 3)]
     bad = tmp_path / "bad.jpg"
     bad.write_bytes(b"\xff\xd8garbage")
-    with pytest.raises(SourceError, match=r"bad\.jpg: not a readable image"):
+    with pytest.raises(InputError, match=r"bad\.jpg: not a readable JPEG image: no marker at byte 2"):
         open_source(str(bad))
     with pytest.raises(SourceError, match="no such file"):
         open_source(str(tmp_path / "missing.png"))
@@ -69,7 +70,7 @@ def test_single_image_and_errors(tmp_path):
     write_images(unreadable, 2)
     for f in unreadable.iterdir():
         f.write_bytes(b"junk")
-    with pytest.raises(SourceError, match="none of its 2 images could be read"):
+    with pytest.raises(SourceError, match=r"unreadable: no readable image in the folder: none of its 2 images"):
         list(open_source(str(unreadable)))
 
 
@@ -89,9 +90,9 @@ def test_video_file_is_read_to_its_end(tmp_path):
 @pytest.mark.realdata
 def test_real_video_file_and_its_undecodable_tail(shared_data):
     # tree.avi (Cinepak) declares 444 frames; OpenCV's FFmpeg decodes the first 68. The rest must be
-    # reported, not passed over as a normal end of file.
+    # reported, not passed over as a normal end of file: an InputError, after the frames that were read.
     frames = []
-    with pytest.raises(SourceError, match=r"tree\.avi: frame (\d+) of 444 cannot be decoded") as info:
+    with pytest.raises(InputError, match=r"tree\.avi: truncated or corrupt: frame (\d+) of 444 cannot") as info:
         for frame in open_source(str(shared_data / "images" / "tree.avi")):
             frames.append(frame)
     assert len(frames) > 10 and frames[0].data.shape[2] == 3
@@ -107,7 +108,8 @@ def test_truncated_video_is_reported(tmp_path):
     data = path.read_bytes()
     path.write_bytes(data[: len(data) // 2])
     frames = []
-    with pytest.raises(SourceError, match=r"cut\.avi: frame \d+ of 40 cannot be decoded"):
+    with pytest.raises(InputError, match=r"cut\.avi: truncated or corrupt: frame (\d+) of 40 cannot be decoded; "
+                                         r"\1 of 40 frames were read"):
         for frame in open_source(str(path)):
             frames.append(frame)
     assert 5 < len(frames) < 40

@@ -21,5 +21,5 @@ def test_labels_at_the_same_place_are_stacked_without_overlap_and_stay_in_the_im
     for i in range(4):
         for j in range(i):
             assert not _overlap(placed[i], placed[j]), (placed[i], placed[j])
-    assert all(0 <= box[0] and box[2] <= 640 and 0 <= box[1] and box[3] <= 480 for box in placed)
+    assert all(box[0] >= 0 and box[1] >= 0 and box[2] <= 640 and box[3] <= 480 for box in placed)
     assert (image[placed[0][1] + 2:placed[0][3] - 2, placed[0][0] + 2:placed[0][2] - 2] < 200).any()  # drawn

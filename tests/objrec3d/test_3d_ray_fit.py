@@ -22,7 +22,7 @@ def test_the_ray_fit_reads_a_noisy_partial_arc_without_the_geometric_fits_bias()
     rng = np.random.default_rng(3)
     geometric, ray = [], []
     for points, rays, center in _arcs(rng, 0.045, 0.0063, 60.0):
-        start = center + [0.003, -0.004]
+        start = center + np.array([0.003, -0.004])
         geometric.append(_geometric_fit(points, start, 0.05)[1])
         ray.append(_ray_fit(points, rays, start, 0.05)[1])
     assert np.mean(geometric) < 0.045 - 0.003  # the geometric fit reads a 4.5 cm can 3+ mm small

@@ -1,0 +1,80 @@
+"""The commands' entry points: Ctrl-C or SIGTERM while a command's libraries load ends it with one line.
+
+Importing a command loads NumPy, OpenCV and the rest: a few tenths of a second in which Python's own Ctrl-C
+handling would print a KeyboardInterrupt traceback from deep inside some import. The console scripts start
+here instead, and this module imports nothing heavy: a handler that ends the process at once (one line on
+stderr, exit code 128 + the signal's number: 130 for Ctrl-C) is in place before the command's module is
+imported, and the previous handling is back before its ``main`` runs, so that each command then treats
+signals as it documents. Nothing is open or written yet at that point, so ending at once loses nothing.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import signal
+import threading
+from collections.abc import Callable, Iterator
+from importlib import import_module
+from types import FrameType
+
+#: Each command's module (its ``main`` is the command).
+COMMANDS = {
+    "objrec-detect": "objrec_apps.detect",
+    "objrec-define": "objrec_apps.define",
+    "objrec-batch": "objrec_apps.batch",
+    "objrec-inspect": "objrec_apps.inspect",
+    "objrec-patrol": "navigation.cli",
+}
+#: The signals that end a command while it starts.
+START_SIGNALS = (signal.SIGINT, signal.SIGTERM)
+
+
+def _end_at_once(prog: str) -> Callable[[int, FrameType | None], None]:
+    def handler(signum: int, _frame: FrameType | None) -> None:
+        os.write(2, f"{prog}: interrupted while starting ({signal.Signals(signum).name})\n".encode())
+        os._exit(128 + signum)
+
+    return handler
+
+
+@contextlib.contextmanager
+def ending_at_once(prog: str, signals: tuple[int, ...] = START_SIGNALS) -> Iterator[None]:
+    """Within: these signals end the process at once with one line (for a start-up that has nothing to save
+    yet); the previous handling is back afterwards. Outside the main thread it changes nothing."""
+    previous = {}
+    if threading.current_thread() is threading.main_thread():
+        handler = _end_at_once(prog)
+        previous = {sig: signal.signal(sig, handler) for sig in signals}
+    try:
+        yield
+    finally:
+        for sig, old in previous.items():
+            signal.signal(sig, old)
+
+
+def launch(prog: str) -> int:
+    """Import the command ``prog`` while a signal ends it at once, then run its ``main``; its exit code."""
+    with ending_at_once(prog):
+        command = import_module(COMMANDS[prog])
+    return int(command.main())
+
+
+def detect() -> int:
+    return launch("objrec-detect")
+
+
+def define() -> int:
+    return launch("objrec-define")
+
+
+def batch() -> int:
+    return launch("objrec-batch")
+
+
+def inspect() -> int:
+    return launch("objrec-inspect")
+
+
+def patrol() -> int:
+    return launch("objrec-patrol")
