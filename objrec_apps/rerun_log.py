@@ -94,6 +94,10 @@ def detection_blueprint(kind: Kind, stage_ids: Sequence[str]) -> Any:
     return rrb.Blueprint(rrb.Vertical(rrb.Grid(*views), plots, row_shares=[4, 1]))
 
 
+#: Frames between two checks that the recording is still being written.
+CHECK_EVERY = 50
+
+
 class RerunRecorder:
     """An annotation sink (``recorder(frame, objects, stages)``) that logs each frame to a recording.
 
@@ -135,7 +139,18 @@ class RerunRecorder:
         rec.log("stats/frame_seconds", rr.Scalars(seconds))
         rec.log("stats/objects", rr.Scalars(float(len(objects.objects))))
         self.frames += 1
+        if self.frames % CHECK_EVERY == 0:
+            self._check_writing()
         self._ready = time.perf_counter()
+
+    def _check_writing(self) -> None:
+        """rerun reports a failed file write (a full disk) only when flushed: flushing now and then ends the
+        run with one line soon after, rather than after every frame was logged into nowhere."""
+        try:
+            self.recording.flush()
+        except Exception as exc:
+            self._closed = True
+            raise OutputError(self.target, f"cannot be written: {exc}") from None
 
     def _log_data(self, path: str, data: Any) -> None:
         rr, kind = self._rr, self.kind

@@ -82,8 +82,9 @@ def yaml_text(text: str, path: str | os.PathLike[str] = "<text>", limits: YAMLLi
     """Parse YAML text with the strict dialect; errors are InputError naming ``path``, line and column."""
     limits = limits or YAMLLimits()
     loader_class = type("_Loader", (_StrictLoader,), {"max_depth": limits.max_depth})
-    loader = loader_class(text)
+    loader = None
     try:
+        loader = loader_class(text)  # refuses control characters at once
         return loader.get_single_data()
     except RecursionError:
         raise InputError(path, "not valid YAML: nested too deeply") from None
@@ -96,12 +97,16 @@ def yaml_text(text: str, path: str | os.PathLike[str] = "<text>", limits: YAMLLi
         if "could not determine a constructor" in str(exc):
             problem = f"{problem} (tags that build Python objects are not allowed)"
         raise InputError(path, f"not valid YAML: {problem}", where) from None
+    except yaml.reader.ReaderError as exc:
+        raise InputError(path, f"not valid YAML: character #x{exc.character:04x} at position {exc.position} is "
+                               "not allowed (control characters)") from None
     except yaml.YAMLError as exc:
         raise InputError(path, f"not valid YAML: {exc}") from None
     except ValueError as exc:  # e.g. an integer with more digits than Python converts
         raise InputError(path, f"not valid YAML: {exc}") from None
     finally:
-        loader.dispose()
+        if loader is not None:
+            loader.dispose()
 
 
 def read_yaml(path: str | os.PathLike[str], limits: YAMLLimits | None = None) -> Any:
