@@ -102,6 +102,9 @@ def yaml_text(text: str, path: str | os.PathLike[str] = "<text>", limits: YAMLLi
                                "not allowed (control characters)") from None
     except yaml.YAMLError as exc:
         raise InputError(path, f"not valid YAML: {exc}") from None
+    except (IndexError, KeyError, TypeError, AttributeError):  # PyYAML's own constructors on odd tagged values
+        raise InputError(path, "not valid YAML: a tagged value (!!float, !!int, ...) cannot be read as its "
+                               "tag says") from None
     except ValueError as exc:  # e.g. an integer with more digits than Python converts
         raise InputError(path, f"not valid YAML: {exc}") from None
     finally:
