@@ -54,9 +54,8 @@ def grid_normals(cloud: PointCloud, indices: np.ndarray, *, window: int = 3, max
     hh, ww = bottom - top, right - left
     values = np.zeros((hh + 1, ww + 1, 4), dtype=np.float64)
     inner = values[1:, 1:]
-    inner[..., :3] = grid
     valid = np.isfinite(grid[..., 0] + grid[..., 1] + grid[..., 2])
-    inner[~valid] = 0.0
+    np.copyto(inner[..., :3], grid, where=valid[..., None])
     inner[..., 3] = valid
     np.cumsum(values, axis=0, out=values)
     np.cumsum(values, axis=1, out=values)
@@ -69,28 +68,28 @@ def grid_normals(cloud: PointCloud, indices: np.ndarray, *, window: int = 3, max
     k = 2 * r + 1
     box = pad[k : k + hh, k : k + ww] - pad[:hh, k : k + ww] - pad[k : k + hh, :ww] + pad[:hh, :ww]
     count = box[..., 3]
-    with np.errstate(invalid="ignore", divide="ignore"):
-        mean = (box[..., :3] / count[..., None]).astype(np.float32)
     need = (r + 1) ** 2  # at least a quarter of a box must be valid
-    mean[count < need] = np.nan
-    # Neighbours outside the box read as missing (NaN), which invalidates the normal below.
+    # The box means, NaN where too few are valid; neighbours outside the box read as missing (NaN) too,
+    # which invalidates the normal below.
     padded = np.full((hh + 2 * r, ww + 2 * r, 3), np.nan, dtype=np.float32)
-    padded[r : r + hh, r : r + ww] = mean
+    count = np.where(count >= need, count, np.nan)
+    padded[r : r + hh, r : r + ww] = box[..., :3] / count[..., None]
     pr, pc = rows + r, cols + r
     du = (padded[pr, pc + r] - padded[pr, pc - r]).astype(np.float64)
     dv = (padded[pr + r, pc] - padded[pr - r, pc]).astype(np.float64)
     normals = np.cross(du, dv)
-    length = np.linalg.norm(normals, axis=1)
-    depth = cloud.points[indices, 2].astype(np.float64)
+    length = np.sqrt(np.einsum("ij,ij->i", normals, normals))
+    points = cloud.points[indices]
+    depth = points[:, 2].astype(np.float64)
     limit = max_slant * np.abs(depth)
-    du_length, dv_length = np.linalg.norm(du, axis=1), np.linalg.norm(dv, axis=1)
+    du_length, dv_length = np.sqrt(np.einsum("ij,ij->i", du, du)), np.sqrt(np.einsum("ij,ij->i", dv, dv))
     # Gradients (nearly) parallel, or apart by float32 rounding only, span no surface: a line, or one spot.
     with np.errstate(invalid="ignore"):
         across = np.maximum(_MIN_SINE * du_length * dv_length,
                             _RESOLUTION * np.abs(depth) * np.maximum(du_length, dv_length))
         ok = (length > across) & (du_length < limit) & (dv_length < limit)
     normals = normals[ok] / length[ok, None]
-    _orient(normals, cloud.points[indices[ok]], cloud.sensor_origin)
+    _orient(normals, points[ok], cloud.sensor_origin)
     out[ok] = normals
     return out
 
@@ -209,4 +208,4 @@ _RESOLUTION = 1e-6
 def _orient(normals: np.ndarray, points: np.ndarray, origin: np.ndarray) -> None:
     """Flip normals in place to face the sensor."""
     flip = np.einsum("ij,ij->i", normals, np.asarray(origin) - points) < 0
-    normals[flip] *= -1
+    normals *= np.where(flip, -1.0, 1.0).astype(normals.dtype)[:, None]

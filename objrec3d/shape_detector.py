@@ -67,9 +67,10 @@ class ShapeDetector(CloudDetector):
     max_iterations = Int(1000, "hypotheses tried at most per object", min=1, max=100_000, soft_max=10_000, step=1)
     probability = Float(0.99, "adaptive stopping: stop once a better model is this unlikely", min=0.5, max=0.99999,
                         step=0.001)
-    min_inliers = Int(100, "a fit with fewer inliers (in its largest connected piece) is no object. Counted "
-                      "after every filter: a 5 mm voxel filter leaves a 2.4 cm ball at 1 m about 20 points, so "
-                      "keep this low (the shape checks below reject clutter) rather than raise it",
+    min_inliers = Int(80, "a fit with fewer inliers (in its largest connected piece) is no object. Counted "
+                      "after every filter, and far or noisy objects keep about half their visible points as "
+                      "inliers: 80 finds objects with 150 visible points, a 5 mm voxel filter included. Keep this "
+                      "low (the shape checks below reject clutter) rather than raise it",
                       min=3, max=10_000_000, soft_max=5000)
     min_arc = Float(60.0, "degrees the inliers must cover: of the circumference (cylinder), of the cap across its "
                     "narrower side (sphere); a sliver of a plane, an edge or a ring is no shape", min=0.0, max=360.0,
@@ -95,6 +96,7 @@ class ShapeDetector(CloudDetector):
 
     def __init__(self, id: str | None = None, *, object_name: str | None = None, **parameters: Any) -> None:
         self._last_reason: str | None = None
+        self._grid_normals = False  # whether the last cloud's normals came from its image grid
         #: Gives each object an ``id`` that stays while the object does, frame after frame.
         self.tracker = IdentityTracker()
         super().__init__(id, object_name=object_name, **parameters)
@@ -129,13 +131,13 @@ class ShapeDetector(CloudDetector):
         settings = ShapeSettings(
             shape="cylinder", min_radius=p.min_radius, max_radius=p.max_radius,
             threshold=p.distance_threshold, normal_weight=p.normal_distance_weight,
-            max_iterations=p.max_iterations, probability=p.probability,
+            max_iterations=p.max_iterations, probability=p.probability, noise_weighted=not self._grid_normals,
         )
         rng = np.random.default_rng(p.random_seed)
         alive = np.arange(points.shape[0])
         found: list[Found] = []
         reasons: dict[str, str] = {}
-        attempts = p.max_objects + 6  # a rejected fit's points are set aside and the search goes on
+        attempts = p.max_objects + 10  # a rejected fit's points are set aside and the search goes on
         while len(found) < p.max_objects and attempts > 0 and alive.size >= p.min_inliers:
             attempts -= 1
             accepted: list[Found] = []
@@ -222,6 +224,7 @@ class ShapeDetector(CloudDetector):
             normals = grid_normals(cloud, index, window=p.normal_window)
             if np.isfinite(normals[:, 0]).mean() < 0.5:  # a sparse grid (voxel-thinned): use neighbours
                 normals = None
+        self._grid_normals = normals is not None
         if normals is None:
             normals = adaptive_normals(cloud.points[index], p.normal_neighbours, cloud.sensor_origin, p.normal_radius)
         ok = np.isfinite(normals[:, 0])

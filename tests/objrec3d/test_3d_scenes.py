@@ -62,9 +62,6 @@ def _matches(obj, want) -> bool:
     return across <= 0.005 and axis_angle_degrees(obj.axis, want.axis) <= 2.0
 
 
-@pytest.mark.xfail(strict=True, reason="82 of 90 objects (91 %) against the 95 % goal: at 2.5 m the unorganized "
-                   "clouds' normals (9.6 mm depth noise) agree with too few points of two cylinders for min_inliers; "
-                   "two spheres with 210-230 points are missed; a 4.5 cm cylinder at 2.25 m reads 4-6 mm large")
 def test_objects_with_150_visible_points_are_found_at_every_range_and_layout(scenes) -> None:
     detector = ShapeDetector(shape="cylinder+sphere", max_objects=5)
     wanted = good = 0
