@@ -291,6 +291,8 @@ def ransac_shape(
 #: Normals scattered by more than this (the median angle, radians, on the model's surface) weigh less.
 _NORMAL_NOISE_REF = math.radians(6.0)
 _NORMAL_WEIGHT_FLOOR = 0.5
+#: The scatter is measured on about this many points (at least), evenly spread.
+_SCATTER_POINTS = 4000
 
 
 def _noise_weighted(settings: ShapeSettings, pts: np.ndarray, nrm: np.ndarray, center: np.ndarray,
@@ -304,7 +306,7 @@ def _noise_weighted(settings: ShapeSettings, pts: np.ndarray, nrm: np.ndarray, c
     cross-section, never along the axis; a sphere's tilts toward or away from the middle of the visible cap,
     never around it. The normals' component in that direction, less what the position on the surface explains,
     is noise alone (its median, times 1.75, is the median angle of isotropic noise)."""
-    step = max(1, pts.shape[0] // _REFINE_SCORED)  # a median needs no more points
+    step = max(1, pts.shape[0] // _SCATTER_POINTS)  # a median needs no more points
     pts, nrm = pts[::step], nrm[::step]
     dist, cos = _residuals(pts, nrm, center, axis, radius)
     band = np.flatnonzero((dist < settings.threshold) & (cos > 0.0))

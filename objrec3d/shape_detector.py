@@ -96,7 +96,6 @@ class ShapeDetector(CloudDetector):
 
     def __init__(self, id: str | None = None, *, object_name: str | None = None, **parameters: Any) -> None:
         self._last_reason: str | None = None
-        self._grid_normals = False  # whether the last cloud's normals came from its image grid
         #: Gives each object an ``id`` that stays while the object does, frame after frame.
         self.tracker = IdentityTracker()
         super().__init__(id, object_name=object_name, **parameters)
@@ -119,7 +118,7 @@ class ShapeDetector(CloudDetector):
         ``points_with_normals``). Sets ``last_reason`` when there are none."""
         p = self.params
         shapes = p.shape.split("+")
-        points, normals, _ = self.points_with_normals(cloud, p)
+        points, normals, _, from_grid = self._points_with_normals(cloud, p)
         self._last_reason = None
         if points.shape[0] < p.min_inliers:
             valid = cloud.count_valid()
@@ -131,7 +130,7 @@ class ShapeDetector(CloudDetector):
         settings = ShapeSettings(
             shape="cylinder", min_radius=p.min_radius, max_radius=p.max_radius,
             threshold=p.distance_threshold, normal_weight=p.normal_distance_weight,
-            max_iterations=p.max_iterations, probability=p.probability, noise_weighted=not self._grid_normals,
+            max_iterations=p.max_iterations, probability=p.probability, noise_weighted=not from_grid,
         )
         rng = np.random.default_rng(p.random_seed)
         alive = np.arange(points.shape[0])
@@ -215,20 +214,24 @@ class ShapeDetector(CloudDetector):
 
     def points_with_normals(self, cloud: PointCloud, p: Any = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """The valid points that have a normal (float64), their normals, and their indices in the cloud."""
-        p = self.params if p is None else p
+        return self._points_with_normals(cloud, self.params if p is None else p)[:3]
+
+    @staticmethod
+    def _points_with_normals(cloud: PointCloud, p: Any) -> tuple[np.ndarray, np.ndarray, np.ndarray, bool]:
+        """``points_with_normals``, and whether the normals came from the image grid."""
         index = np.flatnonzero(cloud.valid_mask())
         if index.size == 0:
-            return np.empty((0, 3)), np.empty((0, 3)), index
+            return np.empty((0, 3)), np.empty((0, 3)), index, False
         normals = None
         if cloud.is_organized:
             normals = grid_normals(cloud, index, window=p.normal_window)
             if np.isfinite(normals[:, 0]).mean() < 0.5:  # a sparse grid (voxel-thinned): use neighbours
                 normals = None
-        self._grid_normals = normals is not None
+        from_grid = normals is not None
         if normals is None:
             normals = adaptive_normals(cloud.points[index], p.normal_neighbours, cloud.sensor_origin, p.normal_radius)
         ok = np.isfinite(normals[:, 0])
-        return cloud.points[index[ok]].astype(np.float64), normals[ok].astype(np.float64), index[ok]
+        return cloud.points[index[ok]].astype(np.float64), normals[ok].astype(np.float64), index[ok], from_grid
 
     def _judge(self, fit: ShapeFit, points: np.ndarray, normals: np.ndarray, settings: ShapeSettings, p: Any
                ) -> str | None:
