@@ -6,6 +6,9 @@ data kinds (:class:`Kind`) and source types (:class:`FrameSource`), and the two 
 OpenCV, Open3D or Qt, and names no data kind: kinds, modules and sources are plug-ins.
 """
 
+from declare.parameters import Bool, Choice, Float, Int, Parameter, ParameterError, Str
+from declare.rules import Check, Ordered, Rule
+
 from .directors import (
     AnnotationSink,
     DefinitionDirector,
@@ -20,7 +23,6 @@ from .kinds import FrameKindError, Kind, Outline
 from .messages import DetectedObjectArray, Header
 from .modules import Detector, Filter, Rect, SelectionRefused
 from .observer import Change, Observer, Subject
-from .parameters import Bool, Choice, Float, Int, Parameter, ParameterError, Str
 from .parametrizable import Parametrizable
 from .registry import (
     UnknownModuleError,
@@ -37,7 +39,6 @@ from .registry import (
     source_types,
     source_usage,
 )
-from .rules import Check, Ordered, Rule
 from .schema import FORMAT_VERSION, ParameterFileError
 from .sinks import JSONLinesSink
 from .sources import Frame, FrameSource, SourceError, SourceSpec

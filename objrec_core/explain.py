@@ -8,9 +8,10 @@ import json
 from collections.abc import Sequence
 from typing import Protocol
 
+from declare.parameters import printable
+
 from .directors import DetectorOutcome
 from .messages import Header
-from .parameters import printable
 
 #: What is written for a detector that found nothing and gives no reason of its own.
 NO_REASON = "no objects (this detector gives no reason)"

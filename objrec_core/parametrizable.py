@@ -9,9 +9,10 @@ from abc import ABCMeta
 from collections.abc import Mapping
 from typing import Any, ClassVar
 
+from declare.parameters import Parameter, ParameterError, printable
+from declare.rules import Rule
+
 from .observer import Change, Subject
-from .parameters import Parameter, ParameterError, printable
-from .rules import Rule
 
 _ID_PATTERN = re.compile(r"^[A-Za-z_][A-Za-z0-9_.-]*$")
 

@@ -11,11 +11,11 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from declare.parameters import ParameterError, printable, short_repr
 from strictio import InputError, YAMLLimits, read_yaml
 from strictio.errors import escape_controls
 
 from .modules import Detector
-from .parameters import ParameterError, printable, short_repr
 from .parametrizable import Parametrizable, check_module_id
 from .registry import UnknownModuleError, kind_names, module_type
 

@@ -17,7 +17,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, ClassVar
 
-from .parameters import Bool, Choice, Float, Int, Parameter, ParameterError, Str, short_repr
+from declare.parameters import Bool, Choice, Float, Int, Parameter, ParameterError, Str, short_repr
 
 
 class SourceError(RuntimeError):

@@ -30,11 +30,12 @@ from typing import Any
 
 import yaml
 
+from declare.parameters import Bool, Choice, Float, Int, Parameter, ParameterError, Str, short_repr
+
 from .kinds import FrameKindError, Kind
 from .messages import Header
 from .modules import Detector, Filter, Rect, SelectionRefused
 from .observer import Change
-from .parameters import Bool, Choice, Float, Int, Parameter, ParameterError, Str, short_repr
 from .parametrizable import Parametrizable
 from .registry import (
     UnknownModuleError,
