@@ -18,28 +18,29 @@ from pathlib import Path
 
 from rerunio import RerunUnavailable
 from strictio import InputError, OutputError
-from strictio.cli_numbers import CommandLineParser, Number, check_limit_settings, fields, printable
+from strictio.cli_numbers import CommandLineParser, Number, check_limit_settings, fields
+from strictio.shown import printable
+from strictio.signals import StopSignals
 
 from .battery import LaptopBatteryParams, RobotBatteryParams, kobuki_percent, kobuki_voltage
 from .diagram import write_diagram
 from .docking import DockingStation
 from .geometry import Pose2D
-from .localization import LOCALIZATION_MODES
 from .maps import MapError, load_map
 from .patrol import PatrolMachine
 from .poses import PoseFileError, load_poses
 from .render import ANIMATED, STILL, RunPicture, save_render
 from .rerun_log import PatrolRecorder, open_patrol_rerun
-from .runner import MAX_STEPS, StopSignals, Summary, run_patrol
+from .runner import MAX_STEPS, Summary, run_patrol
+from .sim_options import add_simulation_options, simulation_config
 from .simulation import SimConfig, Simulation, StartPoseError
 
 log = logging.getLogger("navigation.cli")
 PROG = "objrec-patrol"
 
 
-# The command-line numbers, each declared once with its range (the inspection command shares the
-# simulation's). A time step below 10 ms buys nothing and multiplies the steps; above 0.5 s the follower and
-# the dock overshoot.
+# The command-line numbers, each declared once with its range (the inspection command shares these; the
+# simulation's own are in navigation.sim_options).
 COORDINATE = Number(-1e6, 1e6)  # metres in the map frame
 YAW = Number(-math.tau, math.tau)  # radians
 LAPS = Number(1, 100_000, whole=True)
@@ -47,10 +48,6 @@ TIME_LIMIT = Number(0, 1e7, above=True)  # simulated seconds
 PERCENT = Number(0, 100)
 HOURS = Number(0.01, 1000)
 DOCK_DISTANCE = Number(0.1, 10)  # metres
-SEED = Number(0, 2**32 - 1, whole=True)
-ODOM_NOISE = Number(0, 1)  # a fraction of each step's motion
-TIME_STEP = Number(0.01, 0.5)  # seconds
-MARGIN = Number(0, 2)  # metres
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -92,20 +89,7 @@ def build_parser() -> argparse.ArgumentParser:
                            f"{DOCK_DISTANCE.describe()})")
     dock.add_argument("--resume-after-charging", action="store_true",
                       help="undock and patrol on when charged, instead of shutting down")
-    sim = p.add_argument_group("simulation")
-    sim.add_argument("--seed", type=SEED, default=0,
-                     help=f"random seed for sensor noise (default 0; {SEED.describe()})")
-    sim.add_argument("--odom-noise", type=ODOM_NOISE, default=0.0, metavar="FRACTION",
-                     help=f"relative odometry noise per step, e.g. 0.02 (default 0; {ODOM_NOISE.describe()})")
-    sim.add_argument("--localization", choices=LOCALIZATION_MODES, default="exact",
-                     help="pose the navigation drives on: exact (the true pose, default), amcl (a particle filter "
-                          "matching laser scans to the map), odometry (dead reckoning alone)")
-    sim.add_argument("--dt", type=TIME_STEP, default=0.1, metavar="SECONDS",
-                     help=f"time step (default 0.1; {TIME_STEP.describe()})")
-    sim.add_argument("--realtime", action="store_true", help="run at wall-clock speed instead of flat out")
-    sim.add_argument("--margin", type=MARGIN, default=0.10, metavar="METRES",
-                     help=f"obstacle inflation beyond the robot radius for planning (default 0.10; "
-                          f"{MARGIN.describe()})")
+    add_simulation_options(p)
     out = p.add_argument_group("output")
     out.add_argument("--events", metavar="FILE", help="write every event as JSON Lines")
     out.add_argument("--render", metavar="PATH",
@@ -159,12 +143,10 @@ def _config(args: argparse.Namespace) -> SimConfig:
         runtime_h=args.robot_runtime, charge_time_h=args.robot_charge_time,
         low_voltage=kobuki_voltage(robot_low) if robot_low is not None else base.robot_battery.low_voltage)
     return replace(
-        base, dt=args.dt, inflation_margin=args.margin, seed=args.seed,
-        odom_linear_noise=args.odom_noise, odom_angular_noise=args.odom_noise,
-        robot_battery=robot_params, robot_battery_percent=args.robot_battery,
+        simulation_config(args, base), robot_battery=robot_params, robot_battery_percent=args.robot_battery,
         laptop_battery=LaptopBatteryParams(runtime_h=args.laptop_runtime, low_percent=args.laptop_battery_low),
         laptop_battery_percent=args.laptop_battery, laptop_plugged=args.laptop_plugged,
-        record_every=1 if args.render else 0, localization=args.localization)
+        record_every=1 if args.render else 0)
 
 
 def _error(message: object) -> None:
@@ -172,18 +154,12 @@ def _error(message: object) -> None:
     print(f"{PROG}: error: {printable(message, limit=2000)}", file=sys.stderr)
 
 
-class StartupSigint(StopSignals):
-    """Ctrl-C or SIGTERM before the patrol runs (loading the map, setting up the planner) is remembered, not
-    fatal.
-
-    The patrol then starts preempted and goes straight to SHUTDOWN, so the summary and the events file
-    are written as for a Ctrl-C later on; a second signal gives up at once (KeyboardInterrupt).
-    """
-
-
 def main(argv: Sequence[str] | None = None) -> int:
     try:
-        with StartupSigint() as early:  # from the first moment: a Ctrl-C while parsing counts too
+        # Ctrl-C or SIGTERM before the patrol runs (loading the map, setting up the planner) is remembered, not
+        # fatal: the patrol then starts preempted and goes straight to SHUTDOWN, so the summary and the events
+        # file are written as for a Ctrl-C later on; a second signal gives up at once (KeyboardInterrupt).
+        with StopSignals() as early:  # from the first moment: a Ctrl-C while parsing counts too
             parser = build_parser()
             args = parser.parse_args(argv)
             check_limit_settings()
@@ -208,7 +184,7 @@ def _make_parent_folders(*paths: str | None) -> None:
             raise OutputError(path, f"cannot be written: folder {Path(path).parent}: {exc.strerror or exc}") from None
 
 
-def _run(parser: argparse.ArgumentParser, args: argparse.Namespace, early: StartupSigint | None = None) -> int:
+def _run(parser: argparse.ArgumentParser, args: argparse.Namespace, early: StopSignals | None = None) -> int:
     logging.basicConfig(level=logging.WARNING - 10 * min(args.verbose, 2), stream=sys.stderr,
                         format="%(levelname)s %(name)s: %(message)s")
     for option, value, kinds in (("--render", args.render, STILL + ANIMATED),):

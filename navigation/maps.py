@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import logging
 import math
-import sys
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -19,7 +18,20 @@ import cv2
 import numpy as np
 import yaml
 
-from strictio import MAP_CELLS, InputError, YAMLLimits, read_text, yaml_text
+from declare import Float, Ordered, Str
+from declare.fields import (
+    Document,
+    DocumentError,
+    FilePath,
+    Free,
+    Place,
+    Record,
+    Value,
+    Vector,
+    positive,
+    read_document,
+)
+from strictio import MAP_CELLS, InputError, YAMLLimits
 from strictio.image_size import UNKNOWN_FORMAT, image_size, read_image_file, truncation
 from strictio.limits import check
 
@@ -41,8 +53,34 @@ MAX_COORDINATE = 1e6
 MAX_YAW = 100.0
 
 
-class MapError(ValueError):
-    """A map file that cannot be used; the message names the file, the field or line, and the value."""
+#: A map file that cannot be used: the one error of every file reader (file, line, key, value and rule).
+MapError = DocumentError
+
+
+def _negate_rule(value: Any) -> str | None:
+    return None if value in (0, 1) else "expected 0 or 1"
+
+
+def _mode_rule(value: str) -> str | None:
+    return None if value.lower() in MODES else f"expected one of {', '.join(MODES)}"
+
+
+def _coordinate(name: str, bound: float, unit: str) -> Value:
+    return Value(Float(0.0, f"{name}, {unit}", min=-bound, max=bound))
+
+
+#: What a map YAML holds (keys other tools add pass unread, so maps made for ROS load unchanged).
+MAP_FIELDS = Record({
+    "image": FilePath(required=True, doc="the map image, PGM, PNG or BMP"),
+    "resolution": Value(Float(0.05, "metres per cell", min=0.0, max=MAX_RESOLUTION), required=True, check=positive),
+    "origin": Vector([_coordinate("x", MAX_COORDINATE, "m"), _coordinate("y", MAX_COORDINATE, "m"),
+                      _coordinate("yaw", MAX_YAW, "rad")], ("x", "y", "yaw"), required=True,
+                     doc="pose of the lower-left corner"),
+    "negate": Free(default=0, kinds=(int, float, bool), what="0 or 1", check=_negate_rule),
+    "occupied_thresh": Float(0.65, "occupancy above which a cell is occupied", min=0.0, max=1.0),
+    "free_thresh": Float(0.196, "occupancy below which a cell is free", min=0.0, max=1.0),
+    "mode": Value(Str("trinary", "how shades become occupancy"), check=_mode_rule),
+}, ignore_unknown=True, rules=(Ordered("free_thresh", "occupied_thresh"),))
 
 
 @dataclass(frozen=True)
@@ -125,161 +163,28 @@ class OccupancyMap:
         return np.ascontiguousarray(img[::-1])
 
 
-def _key_lines(text: str) -> dict[str, int]:
-    """Line number (1-based) of each top-level key, so errors can point at the line."""
-    try:
-        node = yaml.compose(text)
-    except yaml.YAMLError:
-        return {}
-    lines: dict[str, int] = {}
-    if isinstance(node, yaml.MappingNode):
-        for key, _value in node.value:
-            lines[str(key.value)] = key.start_mark.line + 1
-    return lines
-
-
-def _where(path: Path, lines: dict[str, int], key: str) -> str:
-    return f"{path}: line {lines[key]}: field '{key}'" if key in lines else f"{path}: field '{key}'"
-
-
-def _number(path: Path, lines: dict[str, int], raw: dict[str, Any], key: str, default: float | None) -> float:
-    if key not in raw:
-        if default is None:
-            raise MapError(f"{path}: required field '{key}' is missing")
-        return default
-    value = finite_number(raw[key])
-    if value is None:
-        raise MapError(f"{_where(path, lines, key)}: expected a number, got {shown_value(raw[key])}")
-    return value
-
-
-def finite_number(value: Any) -> float | None:
-    """A YAML number as a finite float, or None (not a number, NaN, infinite, or an integer past float)."""
-    if isinstance(value, bool) or not isinstance(value, int | float):
-        return None
-    try:
-        number = float(value)
-    except OverflowError:
-        return None
-    return number if math.isfinite(number) else None
-
-
-def shown_value(value: Any) -> str:
-    """A value for an error line: its repr, shortened (a 4,000-digit number stays one readable line)."""
-    text = repr(value)
-    return text if len(text) <= 60 else f"{text[:40]}... ({len(text):,} characters)"
-
-
-def _bounded(path: Path, lines: dict[str, int], key: str, value: float, low: float, high: float,
-             what: str) -> float:
-    if not low <= value <= high:
-        raise MapError(f"{_where(path, lines, key)}: {what}, got {value!r}")
-    return value
-
-
-def find_long_integer(text: str) -> tuple[str, int, int] | None:
-    """Where a YAML text holds an integer too long for Python to convert (the strict reader only says that
-    one does): its key path, line and digits. Call only after the strict reader composed the text (it
-    refuses aliases and deep nesting first); composing converts nothing."""
-    try:
-        root = yaml.compose(text, Loader=yaml.SafeLoader)
-    except yaml.YAMLError:
-        return None
-    limit = sys.get_int_max_str_digits()
-    stack: list[tuple[yaml.Node, str]] = [(root, "")] if root is not None and limit else []
-    while stack:  # depth first, in document order
-        node, where = stack.pop()
-        if isinstance(node, yaml.MappingNode):
-            stack += reversed([(v, f"{where}.{k.value}" if where else str(k.value)) for k, v in node.value])
-        elif isinstance(node, yaml.SequenceNode):
-            stack += reversed([(value, f"{where}[{i}]") for i, value in enumerate(node.value)])
-        elif isinstance(node, yaml.ScalarNode) and node.tag.endswith(":int"):
-            digits = sum(c.isdigit() for c in node.value)
-            if digits > limit:
-                return where, node.start_mark.line + 1, digits
-    return None
-
-
-def long_integer_message(text: str, exc: InputError) -> str:
-    """The strict reader's refusal of a too-long integer, with the field and line where it is."""
-    found = find_long_integer(text) if "digits" in exc.message and not exc.where else None
-    if found is None:
-        return str(exc)
-    where, line, digits = found
-    return f"{exc.path}: line {line}: field '{where}': an integer of {digits:,} digits is not a usable number"
-
-
 def load_map_metadata(yaml_path: str | Path) -> MapMetadata:
     """Read and validate a map YAML file (not the image); ``image`` is resolved against the YAML's folder."""
     return _load_metadata(Path(yaml_path))[0]
 
 
-def _load_metadata(path: Path) -> tuple[MapMetadata, dict[str, int]]:
-    """The validated metadata and the line of each top-level key (for messages about the image)."""
-    try:
-        text = read_text(path, MAP_YAML_LIMITS.max_bytes)
-    except InputError as exc:
-        if exc.message == "file not found":
-            raise MapError(f"{path}: map file not found") from None
-        raise MapError(str(exc)) from None
-    try:
-        raw = yaml_text(text, path, MAP_YAML_LIMITS)
-    except InputError as exc:
-        raise MapError(long_integer_message(text, exc)) from None
-    if not isinstance(raw, dict):
-        raise MapError(f"{path}: expected a YAML mapping of map fields, got {type(raw).__name__}")
-    lines = _key_lines(text)
-
-    image = raw.get("image")
-    if "image" not in raw:
-        raise MapError(f"{path}: required field 'image' is missing")
-    if not isinstance(image, str) or not image.strip():
-        raise MapError(f"{_where(path, lines, 'image')}: expected an image file name, got {shown_value(image)}")
-    image_path = Path(image)
-    if not image_path.is_absolute():
-        image_path = path.parent / image_path
-
-    resolution = _number(path, lines, raw, "resolution", None)
-    if resolution <= 0.0:
-        raise MapError(f"{_where(path, lines, 'resolution')}: must be positive, got {resolution!r}")
-    _bounded(path, lines, "resolution", resolution, 0.0, MAX_RESOLUTION,
-             f"must be at most {MAX_RESOLUTION:g} m per cell")
-
-    if "origin" not in raw:
-        raise MapError(f"{path}: required field 'origin' is missing")
-    origin = raw["origin"]
-    values = [finite_number(v) for v in origin] if isinstance(origin, list) else []
-    numbers = [v for v in values if v is not None]
-    if len(values) != 3 or len(numbers) != 3:
-        raise MapError(f"{_where(path, lines, 'origin')}: expected [x, y, yaw] numbers, got {shown_value(origin)}")
-    x, y, yaw = numbers
-    for value, bound, what in ((x, MAX_COORDINATE, "x"), (y, MAX_COORDINATE, "y"), (yaw, MAX_YAW, "yaw")):
-        unit = "rad" if what == "yaw" else "m"
-        _bounded(path, lines, "origin", value, -bound, bound, f"{what} must lie within ±{bound:g} {unit}")
-
-    negate = raw.get("negate", 0)
-    if negate not in (0, 1) and not isinstance(negate, bool):
-        raise MapError(f"{_where(path, lines, 'negate')}: expected 0 or 1, got {shown_value(negate)}")
-    occupied = _number(path, lines, raw, "occupied_thresh", 0.65)
-    free = _number(path, lines, raw, "free_thresh", 0.196)
-    for key, value in (("occupied_thresh", occupied), ("free_thresh", free)):
-        if not 0.0 <= value <= 1.0:
-            raise MapError(f"{_where(path, lines, key)}: must lie in [0, 1], got {value!r}")
-    if free > occupied:
-        raise MapError(f"{_where(path, lines, 'free_thresh')}: {free!r} is above occupied_thresh {occupied!r}")
-    mode = raw.get("mode", "trinary")
-    if not isinstance(mode, str) or mode.lower() not in MODES:
-        raise MapError(f"{_where(path, lines, 'mode')}: expected one of {', '.join(MODES)}, got {shown_value(mode)}")
+def _load_metadata(path: Path) -> tuple[MapMetadata, Place]:
+    """The validated metadata and the place of its ``image`` key (for messages about the image)."""
+    document: Document = read_document(path, MAP_YAML_LIMITS, "map")
+    if document.data is None or not isinstance(document.data, dict):
+        raise document.root.fail(f"expected a YAML mapping of map fields, got {type(document.data).__name__}")
+    raw = MAP_FIELDS.read(document.data, document.root)
+    x, y, yaw = raw["origin"]
     meta = MapMetadata(
-        image=image_path,
-        resolution=resolution,
+        image=raw["image"],
+        resolution=raw["resolution"],
         origin=Pose2D(x, y, yaw),
-        negate=bool(negate),
-        occupied_thresh=occupied,
-        free_thresh=free,
-        mode=mode.lower(),
+        negate=bool(raw["negate"]),
+        occupied_thresh=raw["occupied_thresh"],
+        free_thresh=raw["free_thresh"],
+        mode=raw["mode"].lower(),
     )
-    return meta, lines
+    return meta, document.root.key("image")
 
 
 def decode_image(data: bytes, name: Path, flags: int) -> np.ndarray:
@@ -302,7 +207,7 @@ def decode_image(data: bytes, name: Path, flags: int) -> np.ndarray:
     return pixels
 
 
-def _read_image(path: Path, where: str) -> tuple[np.ndarray, bytes]:
+def _read_image(path: Path, where: Place) -> tuple[np.ndarray, bytes]:
     """The map's pixels and the file's bytes; the cells are counted from the header before decoding."""
     try:
         size = image_size(path)
@@ -312,10 +217,10 @@ def _read_image(path: Path, where: str) -> tuple[np.ndarray, bytes]:
         return decode_image(data, path, cv2.IMREAD_UNCHANGED), data
     except InputError as exc:
         if exc.message == "file not found":
-            raise MapError(f"{where}: image file {path} not found") from None
+            raise where.fail(f"image file {path} not found") from None
         if exc.message in (UNKNOWN_FORMAT, "cannot be decoded as an image"):
-            raise MapError(f"{where}: cannot decode {path} as a PGM, PNG or BMP image ({exc.message})") from None
-        raise MapError(f"{where}: {exc}") from None
+            raise where.fail(f"cannot decode {path} as a PGM, PNG or BMP image ({exc.message})") from None
+        raise where.fail(str(exc)) from None
 
 
 def _pnm_maxval(head: bytes) -> int | None:
@@ -380,8 +285,8 @@ def occupancy_from_pixels(pixels: np.ndarray, meta: MapMetadata, max_value: floa
 def load_map(yaml_path: str | Path) -> OccupancyMap:
     """Load a map_server map; raises :class:`MapError` with file, field and value on bad input."""
     path = Path(yaml_path)
-    meta, lines = _load_metadata(path)
-    pixels, data = _read_image(meta.image, _where(path, lines, "image"))
+    meta, image_place = _load_metadata(path)
+    pixels, data = _read_image(meta.image, image_place)
     grid = occupancy_from_pixels(pixels, meta, _pnm_maxval(data))[::-1]
     log.info("loaded map %s: %dx%d cells at %.3f m", path, grid.shape[1], grid.shape[0], meta.resolution)
     return OccupancyMap(np.ascontiguousarray(grid), meta.resolution, meta.origin, source=path)

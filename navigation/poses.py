@@ -10,7 +10,10 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
+from declare import Float
+from declare.fields import Document, DocumentError, Invalid, Place, Value, Vector, document_error
 from strictio import POSES, InputError, read_text
 from strictio.limits import check
 
@@ -23,8 +26,26 @@ POSE_FILE_LIMIT = 4 * 1024 * 1024
 STATION_KEY = "station_pose:"
 
 
-class PoseFileError(ValueError):
-    """A goal-pose file that cannot be used; the message names the file, the line and the text."""
+#: A goal-pose file that cannot be used: the one error of every file reader (file, line, key path, value, rule).
+PoseFileError = DocumentError
+
+
+class _TextNumber(Value):
+    """A number written as text in a pose line, then checked by its declaration (finite, within bounds)."""
+
+    def convert(self, value: Any, at: Place) -> float:
+        try:
+            number = float(value)
+        except ValueError:
+            raise Invalid("expected a number") from None
+        return float(super().convert(number, at))
+
+
+_NAMES = ("x", "y", "z", "qx", "qy", "qz", "qw")
+#: One line of a pose file: seven comma-separated numbers, each finite and within ±MAX_COORDINATE (a typo
+#: such as 1e308 would make the planner's arithmetic overflow).
+POSE_FIELDS = Vector(_TextNumber(Float(0.0, "metres or quaternion", min=-MAX_COORDINATE, max=MAX_COORDINATE)),
+                     _NAMES, named=True)
 
 
 @dataclass(frozen=True)
@@ -36,70 +57,52 @@ class PoseFile:
     source: Path | None = None
 
 
-def _parse_pose(path: Path, lineno: int, text: str) -> Pose2D:
+def _parse_pose(text: str, at: Place) -> Pose2D:
     fields = [f.strip() for f in text.split(",")]
-    if len(fields) != 7:
-        raise PoseFileError(
-            f"{path}: line {lineno}: expected 7 comma-separated numbers "
-            f"(x, y, z, qx, qy, qz, qw), got {len(fields)} in {text!r}")
-    values = []
-    for name, raw in zip(("x", "y", "z", "qx", "qy", "qz", "qw"), fields, strict=True):
-        shown = repr(raw) if len(raw) <= 40 else f"{raw[:30]!r}... ({len(raw):,} characters)"
-        try:
-            value = float(raw)
-        except ValueError:
-            raise PoseFileError(f"{path}: line {lineno}: {name} is not a number: {shown}") from None
-        if not math.isfinite(value):
-            raise PoseFileError(f"{path}: line {lineno}: {name} is not finite: {shown}")
-        if abs(value) > MAX_COORDINATE:
-            raise PoseFileError(f"{path}: line {lineno}: {name} must lie within ±{MAX_COORDINATE:g}, got {shown}")
-        values.append(value)
-    x, y, _z, qx, qy, qz, qw = values
+    if len(fields) != len(_NAMES):
+        raise at.fail(f"expected 7 comma-separated numbers ({', '.join(_NAMES)}), got {len(fields)}", text)
+    x, y, _z, qx, qy, qz, qw = POSE_FIELDS.read(fields, at)
     norm = math.sqrt(qx * qx + qy * qy + qz * qz + qw * qw)
     if norm < 1e-9:
-        raise PoseFileError(f"{path}: line {lineno}: the orientation quaternion is zero in {text!r}")
+        raise at.fail("the orientation quaternion is zero", text)
     return Pose2D(x, y, yaw_from_quaternion(qx / norm, qy / norm, qz / norm, qw / norm))
 
 
 def parse_poses(text: str, path: Path | str = "<poses>") -> PoseFile:
-    """Parse the text of a pose file; ``path`` only names the file in error messages. Every number must be
-    finite and within ±MAX_COORDINATE (a typo such as 1e308 would make the planner's arithmetic overflow);
+    """Parse the text of a pose file; ``path`` only names the file in error messages. Each line is read
+    against :data:`POSE_FIELDS`, and errors name it as ``goals[i]`` or ``station_pose`` with its line;
     more goals than ``OBJREC_MAX_POSES`` allows are refused before any is parsed."""
     path = Path(path)
     contents = [(n, c) for n, c in enumerate((line.split("#", 1)[0].strip() for line in text.splitlines()), 1) if c]
-    goal_count = sum(1 for _n, c in contents if not c.lower().startswith(STATION_KEY))
+    goal_lines = [(n, c) for n, c in contents if not c.lower().startswith(STATION_KEY)]
     try:
-        check(path, POSES, goal_count, "goal poses")  # before any is parsed
+        check(path, POSES, len(goal_lines), "goal poses")  # before any is parsed
     except InputError as exc:
-        raise PoseFileError(str(exc)) from None
-    goals: list[Pose2D] = []
-    station: Pose2D | None = None
-    station_line = 0
-    for lineno, content in contents:
-        if content.lower().startswith(STATION_KEY):
-            if station_line:
-                raise PoseFileError(
-                    f"{path}: line {lineno}: second station_pose (the first is on line {station_line})")
-            station_line = lineno
-            rest = content[len(STATION_KEY):].strip()
-            if rest:
-                station = _parse_pose(path, lineno, rest)
-            continue
-        goals.append(_parse_pose(path, lineno, content))
+        raise document_error(exc) from None
+    station_lines = [(n, c[len(STATION_KEY):].strip()) for n, c in contents if c.lower().startswith(STATION_KEY)]
+    lines = {("goals", i): n for i, (n, _c) in enumerate(goal_lines)}
+    if station_lines:
+        lines[("station_pose",)] = station_lines[0][0]
+    root = Document(path, None, lines).root
+    if len(station_lines) > 1:
+        second = Document(path, None, {("station_pose",): station_lines[1][0]}).root.key("station_pose")
+        raise second.fail(f"a second station_pose (the first is on line {station_lines[0][0]})")
+    station = None
+    if station_lines and station_lines[0][1]:
+        station = _parse_pose(station_lines[0][1], root.key("station_pose"))
+    goals = [_parse_pose(content, root.key("goals").item(i)) for i, (_n, content) in enumerate(goal_lines)]
     if not goals:
-        raise PoseFileError(f"{path}: no goal poses (one 'x, y, z, qx, qy, qz, qw' per line expected)")
+        raise root.fail("no goal poses (one 'x, y, z, qx, qy, qz, qw' per line expected)")
     return PoseFile(tuple(goals), station, path)
 
 
 def load_poses(path: str | Path) -> PoseFile:
-    """Read a goal-pose file; raises :class:`PoseFileError` naming file, line and text on bad input."""
+    """Read a goal-pose file; raises :class:`DocumentError` naming file, line, pose and value on bad input."""
     path = Path(path)
     try:
         text = read_text(path, POSE_FILE_LIMIT)
     except InputError as exc:
-        if exc.message == "file not found":
-            raise PoseFileError(f"{path}: pose file not found") from None
-        raise PoseFileError(str(exc)) from None
+        raise document_error(exc, "pose") from None
     return parse_poses(text, path)
 
 

@@ -2,8 +2,8 @@
 
 A ``.png``/``.jpg`` path gets one picture of the whole run; ``.gif``, ``.avi`` and ``.mp4`` get an
 animation of the robot driving (GIF through OpenCV's animation writer, the others through
-``cv2.VideoWriter``), so no imaging library beyond OpenCV is needed. Drawing happens in the map's grid
-frame, so maps with a rotated origin come out as their image does.
+``strictio.video``, which checks that every frame reads back), so no imaging library beyond OpenCV is
+needed. Drawing happens in the map's grid frame, so maps with a rotated origin come out as their image does.
 """
 
 from __future__ import annotations
@@ -12,8 +12,7 @@ import contextlib
 import logging
 import math
 import os
-import sys
-from collections.abc import Iterator, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -22,6 +21,7 @@ import numpy as np
 
 from strictio import OutputError, write_atomically
 from strictio.atomic import check_replaceable, remove_stale_temporaries, temporary_path
+from strictio.video import VideoFile
 
 from .docking import DockingStation
 from .geometry import Pose2D
@@ -30,8 +30,7 @@ from .maps import OccupancyMap
 log = logging.getLogger(__name__)
 
 STILL = (".png", ".jpg", ".jpeg", ".bmp")
-VIDEO_CODECS = {".avi": "MJPG", ".mp4": "mp4v"}
-ANIMATED = (".gif", *VIDEO_CODECS)
+ANIMATED = (".gif", ".avi", ".mp4")
 
 PATH_COLOUR = (200, 110, 20)
 GOAL_COLOUR = (30, 30, 220)
@@ -222,18 +221,6 @@ def _encoded(ext: str, pic: RunPicture) -> bytes:
     return np.asarray(data).tobytes()
 
 
-@contextlib.contextmanager
-def _quiet_video_warnings() -> Iterator[None]:
-    """OpenCV's FFmpeg writer warns on stderr at every frame it cannot write; the failure is reported once,
-    as an OutputError, instead."""
-    level = cv2.utils.logging.getLogLevel()
-    cv2.utils.logging.setLogLevel(min(level, cv2.utils.logging.LOG_LEVEL_ERROR))
-    try:
-        yield
-    finally:
-        cv2.utils.logging.setLogLevel(level)
-
-
 def _write_video(path: Path, ext: str, pic: RunPicture) -> None:
     """Write the animation under a temporary name, check that every frame reads back, then rename it: OpenCV's
     video writer reports no write error, so a full disk shows only as missing frames."""
@@ -247,14 +234,10 @@ def _write_video(path: Path, ext: str, pic: RunPicture) -> None:
     remove_stale_temporaries(target.parent)
     temporary = temporary_path(target, ext)  # the suffix chooses the container
     try:
-        with _quiet_video_warnings():
-            writer = cv2.VideoWriter(str(temporary), cv2.VideoWriter_fourcc(*VIDEO_CODECS[ext]), 15.0, (w, h))
-            if not writer.isOpened():
-                raise OutputError(path, f"cannot save: OpenCV cannot write {ext} video here")
-            for frame in frames:
-                writer.write(np.ascontiguousarray(frame[:h, :w]))
-            writer.release()
-        readable = _readable_frames(temporary, len(frames))
+        video = VideoFile(temporary, 15.0, (w, h), shown_as=path, watch_growth=False)
+        for frame in frames:
+            video.write(np.ascontiguousarray(frame[:h, :w]))
+        readable = video.finish()
         if readable < len(frames):
             raise OutputError(path, f"cannot save: only {readable} of {len(frames)} frames could be written "
                                     "(a full disk or a file size limit?)")
@@ -266,31 +249,6 @@ def _write_video(path: Path, ext: str, pic: RunPicture) -> None:
     finally:
         with contextlib.suppress(OSError):
             os.unlink(temporary)
-
-
-@contextlib.contextmanager
-def _stderr_silenced() -> Iterator[None]:
-    """Reading back a video that may be cut short makes FFmpeg print its complaints straight to file
-    descriptor 2; what matters is the count, reported in one line by the caller."""
-    sys.stderr.flush()
-    saved = os.dup(2)
-    try:
-        with open(os.devnull, "wb") as null:
-            os.dup2(null.fileno(), 2)
-        yield
-    finally:
-        os.dup2(saved, 2)
-        os.close(saved)
-
-
-def _readable_frames(path: Path, expected: int) -> int:
-    with _stderr_silenced():
-        capture = cv2.VideoCapture(str(path))
-        readable = 0
-        while readable < expected and capture.grab():
-            readable += 1
-        capture.release()
-    return readable
 
 
 def save_render(path: str | Path, pic: RunPicture) -> Path:

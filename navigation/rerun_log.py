@@ -30,7 +30,7 @@ from typing import Any
 
 import numpy as np
 
-from rerunio import VIEWER_PORT, import_rerun, open_stream
+from rerunio import VIEWER_PORT, Recorder, import_rerun, open_stream
 from strictio import OutputError
 
 from .events import Event
@@ -85,30 +85,24 @@ def _event_text(event: Event) -> str:
     return f"{event['type']}: {fields}" if fields else str(event["type"])
 
 
-class PatrolRecorder:
+class PatrolRecorder(Recorder):
     """Logs a simulation to a Rerun recording from the moment it is made until :meth:`close`.
 
-    Make it after the simulation and before the run; it hooks itself onto the event bus and the clock.
+    Make it after the simulation and before the run; it hooks itself onto the event bus and the clock. A failed
+    write is noticed every ``rerunio.CHECK_EVERY`` samples (``rerunio.Recorder``), ending the run with one line.
     """
-
-    #: Where the recording goes, as the user named it (for error messages).
-    target = "the Rerun recording"
 
     def __init__(self, recording: Any, sim: Simulation, goals: Sequence[Pose2D] = (),
                  station_pose: Pose2D | None = None, *, pose_period: float = 0.2, scan_period: float = 1.0,
                  path_spacing: float = 0.05, path_block: int = 256) -> None:
         _check_periods(pose_period, scan_period)
-        import rerun as rr
-
-        self._rr = rr
-        self.recording = recording
+        super().__init__(recording)
         self.sim = sim
         self.path_spacing = path_spacing
         self.path_block = max(2, path_block)
         self.path_strips = 0  # strips started so far: world/path/0000 ...
         self._path: list[tuple[float, float]] = []
         self._scan_rng = np.random.default_rng(sim.config.seed)  # never the simulation's own generator
-        self._closed = False
         self._log_static(goals, station_pose)
         self._set_time(sim.clock.now)
         self._sample()
@@ -144,12 +138,13 @@ class PatrolRecorder:
 
     # -- what changes ---------------------------------------------------------------------------------
     def _set_time(self, seconds: float) -> None:
-        self.recording.set_time("sim_time", duration=float(seconds))
+        self.set_time("sim_time", duration=float(seconds))
 
     def _timed(self, sample: Callable[[], None]) -> Callable[[], None]:
         def run() -> None:
             self._set_time(self.sim.clock.now)
             sample()
+            self.step_logged()
 
         return run
 
@@ -209,28 +204,26 @@ class PatrolRecorder:
             rec.log("world/collisions", rr.Points3D([[x, y, Z_MARK] for x, y in sim.collision_points],
                                                     colors=[COLOURS["collision"]], radii=[0.05]))
 
-    def close(self) -> None:
-        """Log the final pose, unhook from the simulation, and flush and close the recording."""
-        if self._closed:
-            return
-        self._closed = True
-        if self._unsubscribe is not None:
-            self._unsubscribe()
-        for timer in self._timers:
-            timer.cancel()
+    def _before_close(self) -> None:
+        """Unhook from the simulation and log the final pose."""
+        self._unhook()
         self._set_time(self.sim.clock.now)
         self._sample()
+
+    def _unhook(self) -> None:
+        if self._unsubscribe is not None:
+            self._unsubscribe()
+            self._unsubscribe = None
+        for timer in self._timers:
+            timer.cancel()
+
+    def check_writing(self) -> None:
+        """As the base, and a recording that failed stops listening to the simulation at once."""
         try:
-            self.recording.flush()
-            self.recording.disconnect()
-        except Exception as exc:  # rerun reports a full disk or a lost viewer as a RuntimeError
-            raise OutputError(self.target, f"cannot be written: {exc}") from None
-
-    def __enter__(self) -> PatrolRecorder:
-        return self
-
-    def __exit__(self, *_exc: object) -> None:
-        self.close()
+            super().check_writing()
+        except OutputError:
+            self._unhook()
+            raise
 
 
 def open_patrol_rerun(target: str | os.PathLike[str], sim: Simulation, goals: Sequence[Pose2D] = (),

@@ -8,13 +8,13 @@ the time step, the batteries or the options, it never runs on unbounded.
 
 from __future__ import annotations
 
+import contextlib
 import logging
-import signal
-import threading
 import time
 from dataclasses import dataclass
-from types import FrameType
 from typing import Any
+
+from strictio.signals import StopSignals
 
 from .patrol import PatrolMachine
 
@@ -25,8 +25,6 @@ PREEMPT_GRACE = 60.0
 #: Steps a run flat out may take before it is preempted: at the default 0.1 s step, 27 simulated hours, more
 #: than the batteries last; at the smallest step the command allows (0.01 s) still the whole default patrol.
 MAX_STEPS = 1_000_000
-#: The signals that preempt a run; the preempt reason is the signal's name.
-STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM)
 
 
 @dataclass(frozen=True)
@@ -92,35 +90,6 @@ def summarize(machine: PatrolMachine, wall_time: float) -> Summary:
     )
 
 
-class StopSignals:
-    """Turns the first SIGINT or SIGTERM into a flag (polled between steps) and a second one into
-    KeyboardInterrupt; ``reason`` is the first signal's name. Outside the main thread it installs nothing."""
-
-    def __init__(self) -> None:
-        self.count = 0
-        self.reason = ""
-        self._previous: dict[int, Any] = {}
-
-    def __enter__(self) -> StopSignals:
-        if threading.current_thread() is threading.main_thread():
-            self._previous = {sig: signal.signal(sig, self._handle) for sig in STOP_SIGNALS}
-        return self
-
-    def _handle(self, signum: int, _frame: FrameType | None) -> None:
-        self.count += 1
-        self.reason = self.reason or signal.Signals(signum).name
-        if self.count > 1:
-            raise KeyboardInterrupt
-
-    def __exit__(self, *_exc: object) -> None:
-        for sig, previous in self._previous.items():
-            signal.signal(sig, previous)
-        self._previous = {}
-
-
-_SigintFlag = StopSignals  # the name tests/navigation/test_nav_machine.py imports
-
-
 def run_patrol(machine: PatrolMachine, time_limit: float | None = None, realtime: bool = False,
                speed: float = 1.0, handle_sigint: bool = True, max_steps: int | None = MAX_STEPS) -> Summary:
     """Start the machine (if not started) and step until its outcome; returns the summary.
@@ -137,9 +106,7 @@ def run_patrol(machine: PatrolMachine, time_limit: float | None = None, realtime
     step_limit = None if realtime or max_steps is None else sim.clock.steps + max_steps
     preempt_at: float | None = None
     flag = StopSignals() if handle_sigint else None
-    try:
-        if flag is not None:
-            flag.__enter__()
+    with flag if flag is not None else contextlib.nullcontext():
         while not machine.finished:
             if flag is not None and flag.count and not machine.preempt_requested:
                 log.info("%s: preempting the patrol", flag.reason)
@@ -160,7 +127,4 @@ def run_patrol(machine: PatrolMachine, time_limit: float | None = None, realtime
                 ahead = (sim.clock.now - sim0) / speed - (time.perf_counter() - wall0)
                 if ahead > 0:
                     time.sleep(ahead)
-    finally:
-        if flag is not None:
-            flag.__exit__()
     return summarize(machine, time.perf_counter() - wall0)

@@ -15,10 +15,12 @@ from typing import Any
 import cv2
 import numpy as np
 
+from declare import Bool, Float
+from declare.fields import ListOf
 from strictio import OutputError, write_atomically
 
 from .geometry import wrap_angle
-from .tasks import PoseTask, TaskContext, TaskOption, register_task
+from .tasks import PoseTask, TaskContext, register_task
 
 log = logging.getLogger(__name__)
 
@@ -33,7 +35,7 @@ class WaitTask(PoseTask):
     kind = "wait"
     state = "WAIT"
     summary = "stand still for some seconds"
-    options = {"seconds": TaskOption(2.0, "how long to wait, simulated seconds", min=0.0, max=86400.0)}  # noqa: RUF012
+    options = {"seconds": Float(2.0, "how long to wait, simulated seconds", min=0.0, max=86400.0)}  # noqa: RUF012
     positional = "seconds"
 
     def start(self, ctx: TaskContext) -> None:
@@ -73,8 +75,8 @@ class PhotoTask(PoseTask):
     state = "PHOTO"
     summary = "save a camera frame (colour PNG, optionally depth)"
     options = {  # noqa: RUF012 - declarations, never mutated
-        "settle": TaskOption(0.5, "seconds to stand still before the shot", min=0.0, max=60.0),
-        "depth": TaskOption(True, "also save the depth image (16-bit PNG, millimetres)", "flag"),
+        "settle": Float(0.5, "seconds to stand still before the shot", min=0.0, max=60.0),
+        "depth": Bool(True, "also save the depth image (16-bit PNG, millimetres)"),
     }
 
     def start(self, ctx: TaskContext) -> None:
@@ -105,11 +107,11 @@ class LookAroundTask(PoseTask):
     state = "LOOK_AROUND"
     summary = "turn to several headings, one camera frame at each"
     options = {  # noqa: RUF012 - declarations, never mutated
-        "headings": TaskOption((-40.0, 0.0, 40.0), "degrees relative to the goal heading, in order", "numbers",
-                               min=-360.0, max=360.0),
-        "settle": TaskOption(0.3, "seconds to stand still before each frame", min=0.0, max=60.0),
-        "speed": TaskOption(1.0, "fastest turn, rad/s", min=0.05, max=1.9),
-        "capture": TaskOption(True, "take a camera frame at each heading", "flag"),
+        "headings": ListOf(Float(0.0, "degrees", min=-360.0, max=360.0), min_items=1, default=(-40.0, 0.0, 40.0),
+                           doc="degrees relative to the goal heading, in order"),
+        "settle": Float(0.3, "seconds to stand still before each frame", min=0.0, max=60.0),
+        "speed": Float(1.0, "fastest turn, rad/s", min=0.05, max=1.9),
+        "capture": Bool(True, "take a camera frame at each heading"),
     }
     positional = "headings"
 

@@ -10,13 +10,11 @@ from __future__ import annotations
 
 import logging
 from collections.abc import Callable, Sequence
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 from .geometry import Pose2D
+from .task_protocol import MonitorTask, TaskHost
 from .tasks import TASK_RESULTS, StateTask, TaskContext, TaskOutcome, Visit
-
-if TYPE_CHECKING:  # pragma: no cover
-    from .patrol import Monitor, PatrolMachine
 
 log = logging.getLogger(__name__)
 
@@ -24,8 +22,8 @@ log = logging.getLogger(__name__)
 class TaskRunner:
     """Starts and stops the tasks and monitors of a machine; ``visits`` lists every visit so far."""
 
-    def __init__(self, machine: PatrolMachine, names: list[list[str]], tasks: Sequence[Sequence[StateTask]],
-                 monitors: Sequence[Monitor], patrol_prefix: str, region_prefix: str) -> None:
+    def __init__(self, machine: TaskHost, names: list[list[str]], tasks: Sequence[Sequence[StateTask]],
+                 monitors: Sequence[MonitorTask], patrol_prefix: str, region_prefix: str) -> None:
         self.machine = machine
         self._at: dict[str, tuple[int, int, StateTask]] = {}
         self._chain: list[int] = [len(row) for row in names]
@@ -123,7 +121,7 @@ class TaskRunner:
         if owner is None:
             monitor = self._monitors[state]
             if result in monitor.outcomes:
-                self.machine.trigger(result)  # type: ignore[attr-defined]
+                self.machine.trigger(result)
             else:
                 log.warning("monitor %s ended with %r, which leads nowhere (outcomes: %s)", state, result,
                             ", ".join(monitor.outcomes) or "none")
@@ -137,4 +135,4 @@ class TaskRunner:
             ctx.visit.tasks.append(TaskOutcome(state, kind, result, text, self.machine.sim.clock.now))
         if result == "aborted" or (result == "succeeded" and position == self._chain[index] - 1):
             self.machine.pose_done(index)
-        self.machine.trigger(result)  # type: ignore[attr-defined]
+        self.machine.trigger(result)

@@ -7,28 +7,40 @@ A :class:`StateTask` can also run as a monitor region beside the battery monitor
 (:class:`navigation.patrol.Monitor`).
 
 Write a task by subclassing :class:`PoseTask` (declare ``kind``, ``state``, ``options``; implement
-:meth:`StateTask.start`), and make mission files know it with :func:`register_task`. Nothing is patched:
+:meth:`StateTask.start`), and make mission files know it with an ``objrec.tasks`` entry point (name = its
+``kind``) or :func:`register_task` in code (the shared rules of :mod:`declare.registry`). Nothing is patched:
 the machine is built from the tasks it is given. Built-in tasks (``wait``, ``photo``, ``look_around``)
 live in :mod:`navigation.task_library`.
 """
 
 from __future__ import annotations
 
-import importlib
 import logging
-import math
 from abc import ABC, abstractmethod
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, ClassVar
 
+from declare.fields import (
+    NO_VALUE,
+    REQUIRED,
+    DocumentError,
+    FieldLike,
+    Invalid,
+    Place,
+    Record,
+    as_field,
+    code_place,
+)
+from declare.registry import Registry
+
 from .clock import Timer
 from .geometry import Pose2D
 
 if TYPE_CHECKING:  # pragma: no cover
-    from .patrol import PatrolMachine
     from .simulation import Simulation
+    from .task_protocol import TaskHost
 
 log = logging.getLogger(__name__)
 
@@ -36,23 +48,18 @@ log = logging.getLogger(__name__)
 #: (or SHUTDOWN with ``stop_on_failure``), ``preempted`` to SHUTDOWN. Monitors may end with their own words.
 TASK_RESULTS = ("succeeded", "aborted", "preempted")
 
-REQUIRED = object()
-OPTION_TYPES = ("number", "integer", "text", "flag", "numbers", "path")
+class TaskSpecError(DocumentError):
+    """A task that cannot be built: one of the document errors (file, line, key path, value, rule).
 
+    Made with a bare message (``TaskSpecError("unknown task type 'x'")``, as the registry raises it) it names
+    no file; read from a mission it names the mission file, the line and ``at.0.tasks[1].wait.seconds``.
+    """
 
-class TaskSpecError(ValueError):
-    """A task in a mission that cannot be built; the message names the task and the field."""
-
-
-@dataclass(frozen=True)
-class TaskOption:
-    """One option of a task type as mission files write it (``type``: one of :data:`OPTION_TYPES`)."""
-
-    default: Any
-    doc: str
-    type: str = "number"
-    min: float | None = None
-    max: float | None = None
+    def __init__(self, path: Any, key_path: str | None = None, rule: str | None = None, *,
+                 line: int | None = None, value: Any = NO_VALUE) -> None:
+        if key_path is None and rule is None:  # the message alone
+            path, key_path, rule = "", "", str(path)
+        super().__init__(path, key_path or "", rule or "", line=line, value=value)
 
 
 @dataclass
@@ -129,35 +136,33 @@ class PoseTask(StateTask):
     #: The name in mission files and events ("wait", "look_around").
     kind: ClassVar[str]
     summary: ClassVar[str] = ""
-    options: ClassVar[Mapping[str, TaskOption]] = {}
+    #: Declared like module parameters (``Float``, ``Int``, ``Bool``, ``Str``, ``Choice``) or as document fields
+    #: (``ListOf(Float(...))``, ``FilePath(required=True)``): checked, described and shown the same way.
+    options: ClassVar[Mapping[str, FieldLike]] = {}
     #: The option a bare value sets (``- wait: 2`` sets ``seconds``).
     positional: ClassVar[str | None] = None
 
     def __init__(self, **values: Any) -> None:
-        unknown = set(values) - set(self.options)
+        unknown = sorted(set(values) - set(self.options))
         if unknown:
-            raise TaskSpecError(f"{self.kind}: unknown option(s) {', '.join(sorted(unknown))}")
-        self.values = {name: values.get(name, opt.default) for name, opt in self.options.items()}
+            raise TaskSpecError(f"{self.kind}: unknown option(s) {', '.join(unknown)}")
+        self.values = {name: values.get(name, as_field(opt).default) for name, opt in self.options.items()}
 
     @classmethod
-    def from_options(cls, given: Any, base_dir: Path) -> PoseTask:
-        """The task from what a mission file gives: nothing, a bare value, or a mapping of options."""
-        if given is None:
-            given = {}
-        elif not isinstance(given, Mapping):
-            if cls.positional is None:
-                raise TaskSpecError(f"{cls.kind}: takes options as a mapping, got {given!r}")
-            given = {cls.positional: given}
-        values: dict[str, Any] = {}
-        for name, value in given.items():
-            if name not in cls.options:
-                known = ", ".join(cls.options) or "none"
-                raise TaskSpecError(f"{cls.kind}: field '{name}': unknown option (options: {known})")
-            values[name] = parse_option(cls.kind, str(name), cls.options[name], value, base_dir)
-        for name, opt in cls.options.items():
-            if opt.default is REQUIRED and name not in values:
-                raise TaskSpecError(f"{cls.kind}: field '{name}': missing ({opt.doc})")
-        return cls(**values)
+    def table(cls) -> Record:
+        """The task's options as a document table: a mapping of them, or the positional option's bare value."""
+        return Record(cls.options, shorthand=cls.positional, null_is_empty=True)
+
+    @classmethod
+    def from_options(cls, given: Any, at: Place | Path) -> PoseTask:
+        """The task from what a mission file gives at ``at``: nothing, a bare value, or a mapping of options."""
+        if isinstance(at, Path):
+            at = code_place(at, TaskSpecError).key(cls.kind)
+        values = cls.table().read(given, at)
+        try:
+            return cls(**values)
+        except Invalid as exc:  # the task's own check of its values (a parameter file that detects nothing)
+            raise at.invalid(exc) from None
 
     def describe(self) -> str:
         """``look_around headings=-20/0/20 settle=0.3``: the kind and its option values, for events."""
@@ -175,91 +180,80 @@ def _shown(value: Any) -> str:
     return str(value.name if isinstance(value, Path) else value)
 
 
-def parse_option(kind: str, name: str, opt: TaskOption, value: Any, base_dir: Path) -> Any:
-    """Check one option's value against its declaration; errors name the task and the field."""
-    where = f"{kind}: field '{name}'"
-
-    def number(v: Any) -> float:
-        if isinstance(v, bool) or not isinstance(v, int | float) or not math.isfinite(v):
-            raise TaskSpecError(f"{where}: expected a number, got {v!r}")
-        if (opt.min is not None and v < opt.min) or (opt.max is not None and v > opt.max):
-            raise TaskSpecError(f"{where}: {v!r} is outside [{opt.min}, {opt.max}]")
-        return float(v)
-
-    if opt.type == "number":
-        return number(value)
-    if opt.type == "integer":
-        if isinstance(value, bool) or not isinstance(value, int):
-            raise TaskSpecError(f"{where}: expected a whole number, got {value!r}")
-        return int(number(value))
-    if opt.type == "flag":
-        if not isinstance(value, bool):
-            raise TaskSpecError(f"{where}: expected true or false, got {value!r}")
-        return value
-    if opt.type == "numbers":
-        if not isinstance(value, list) or not value:
-            raise TaskSpecError(f"{where}: expected a non-empty list of numbers, got {value!r}")
-        return tuple(number(v) for v in value)
-    if not isinstance(value, str) or not value.strip():
-        raise TaskSpecError(f"{where}: expected text, got {value!r}")
-    if opt.type == "path":
-        path = Path(value).expanduser()
-        return path if path.is_absolute() else base_dir / path
-    return value
-
-
 # -- the registry ---------------------------------------------------------------------------------------
-_TASK_TYPES: dict[str, type[PoseTask]] = {}
-_BUILTINS = "navigation.task_library"
-
-
-def register_task(cls: type[PoseTask]) -> type[PoseTask]:
-    """Make a task type known to mission files under ``cls.kind`` (usable as a class decorator)."""
+def _valid_task(name: str, cls: Any) -> type[PoseTask]:
+    """A task type mission files may name ``name``: a PoseTask with a kind, a state name and typed options."""
+    if not (isinstance(cls, type) and issubclass(cls, PoseTask)):
+        raise TypeError(f"{cls!r} is not a PoseTask subclass")
     kind = getattr(cls, "kind", "")
     if not kind or not getattr(cls, "state", ""):
         raise TypeError(f"{cls.__name__} needs the class attributes 'kind' and 'state'")
+    if kind != name:
+        raise TypeError(f"{cls.__name__}.kind is {kind!r}, not {name!r}")
     if not cls.state.replace("_", "").isalnum() or cls.state.upper() != cls.state:
         raise TypeError(f"{cls.__name__}.state must be upper-case letters, digits and '_', got {cls.state!r}")
-    for name, opt in cls.options.items():
-        if opt.type not in OPTION_TYPES:
-            raise TypeError(f"{cls.__name__}: option {name!r} has unknown type {opt.type!r}")
-    previous = _TASK_TYPES.get(kind)
-    if previous is not None and previous is not cls:
-        log.info("task type %r: %s replaces %s", kind, cls.__qualname__, previous.__qualname__)
-    _TASK_TYPES[kind] = cls
+    for option_name, opt in cls.options.items():
+        try:
+            as_field(opt)
+        except TypeError as exc:
+            raise TypeError(f"{cls.__name__}: option {option_name!r}: {exc}") from None
+    return cls
+
+
+#: The entry-point group of task types: name = the task's name in mission files, value = its PoseTask class.
+TASK_GROUP = "objrec.tasks"
+
+#: Task types by mission-file name: the ``objrec.tasks`` entry points (the built-in ``wait``, ``photo`` and
+#: ``look_around`` of :mod:`navigation.task_library`, and plug-ins') and :func:`register_task` in code.
+TASKS: Registry[type[PoseTask]] = Registry(TASK_GROUP, "task type", error=TaskSpecError, validate=_valid_task,
+                                           name_of=lambda cls: getattr(cls, "kind", "") or repr(cls))
+
+
+def register_task(cls: type[PoseTask]) -> type[PoseTask]:
+    """Make a task type known to mission files under ``cls.kind`` (usable as a class decorator). TypeError
+    for an incomplete class; TaskSpecError when another class holds the name."""
+    TASKS.register(cls)
     return cls
 
 
 def unregister_task(kind: str) -> None:
     """Forget a task type (a test's own, or a plug-in being reloaded); unknown names are ignored."""
-    _TASK_TYPES.pop(kind, None)
+    TASKS.unregister(kind)
 
 
 def task_types() -> dict[str, type[PoseTask]]:
-    """Every registered task type by mission-file name, the built-in ones included."""
-    importlib.import_module(_BUILTINS)  # registers wait, photo and look_around on first use
-    return dict(_TASK_TYPES)
+    """Every task type by mission-file name, the built-in ones included (loading their entry points);
+    one that cannot be loaded is logged and left out."""
+    return TASKS.items()
 
 
-def make_task(item: Any, base_dir: Path) -> PoseTask:
-    """A task from one mission-file entry: ``wait``, ``{wait: 2}`` or ``{look_around: {headings: [...]}}``."""
+def make_task(item: Any, base_dir: Path, at: Place | None = None) -> PoseTask:
+    """A task from one mission-file entry: ``wait``, ``{wait: 2}`` or ``{look_around: {headings: [...]}}``.
+
+    ``at`` is where the entry stands in its mission file (errors name its line and key path); without it
+    errors are :class:`TaskSpecError` naming the task and option (``beep.times``)."""
+    if at is None:
+        at = code_place(base_dir, TaskSpecError)
     if isinstance(item, str):
         kind, given = item, None
     elif isinstance(item, Mapping) and len(item) == 1:
         kind, given = next(iter(item.items()))
     else:
-        raise TaskSpecError(f"expected a task name or a one-key mapping (task: options), got {item!r}")
-    types = task_types()
-    if kind not in types:
-        raise TaskSpecError(f"unknown task {kind!r} (known: {', '.join(sorted(types))})")
-    return types[kind].from_options(given, base_dir)
+        raise at.fail("expected a task name or a one-key mapping (task: options)", item)
+    if not isinstance(kind, str) or kind not in TASKS:
+        raise at.fail(f"unknown task (known: {', '.join(TASKS.names())})", kind)
+    try:
+        task_type = TASKS.get(kind)
+    except TaskSpecError as exc:  # a plug-in that cannot be loaded
+        raise at.key(kind).fail(exc.rule) from None
+    return task_type.from_options(given, at.key(kind))
 
 
 # -- what a running task may use ------------------------------------------------------------------------
 class TaskContext:
     """The simulation, the camera, the visit, timers that die with the task, and how to finish."""
 
-    def __init__(self, machine: PatrolMachine, state: str, task: StateTask, visit: Visit | None,
+    def __init__(self, machine: TaskHost, state: str, task: StateTask, visit: Visit | None,
                  on_finish: Callable[[str, str, dict[str, Any]], None]) -> None:
         self.machine = machine
         self.state = state

@@ -42,14 +42,30 @@ from typing import Any
 
 import cv2
 import numpy as np
-import yaml
 
-from strictio import InputError, YAMLLimits, read_text, yaml_text
+from declare import Choice, Float, Int, Str
+from declare.fields import (
+    Document,
+    DocumentError,
+    FilePath,
+    Free,
+    Invalid,
+    ListOf,
+    Place,
+    Record,
+    Value,
+    Vector,
+    document_from_text,
+    not_blank,
+    positive,
+    read_document,
+)
+from strictio import InputError, YAMLLimits
 from strictio.image_size import read_image_file
 
 from .geometry import Pose2D
 from .laser import LaserScan
-from .maps import MAX_COORDINATE, MAX_YAW, decode_image, finite_number, long_integer_message, shown_value
+from .maps import MAX_COORDINATE, MAX_YAW, decode_image
 
 log = logging.getLogger(__name__)
 
@@ -66,8 +82,8 @@ SIZE_FIELDS: dict[str, tuple[str, ...]] = {
     "sphere": ("radius",),
     "poster": ("width", "height"),
 }
-_COMMON_FIELDS = ("name", "shape", "x", "y", "z", "yaw", "color")
-_MOVING_FIELDS = ("name", "shape", "z", "yaw", "color", "path", "speed")
+#: The largest size of an object or obstacle, metres: beyond it a value is a typo.
+MAX_SIZE = 1000.0
 
 Color = tuple[int, int, int]
 DEFAULT_OBJECT_COLOR: Color = (128, 128, 128)
@@ -78,8 +94,8 @@ DEFAULT_FLOOR_COLOR: Color = (110, 115, 120)
 DEFAULT_BACKGROUND_COLOR: Color = (235, 235, 235)
 
 
-class WorldError(ValueError):
-    """A world file that cannot be used; the message names the file, the line, the object and the field."""
+#: A world file that cannot be used: the one error of every file reader (file, line, key path, value, rule).
+WorldError = DocumentError
 
 
 @dataclass(frozen=True, eq=False)
@@ -351,158 +367,101 @@ class World:
 
 
 # -- loading -------------------------------------------------------------------------------------------
-def _yaml_lines(text: str) -> dict[tuple[Any, ...], int]:
-    """1-based line of every key and list item, by path (``("objects", 2, "radius")``)."""
-    lines: dict[tuple[Any, ...], int] = {}
-    try:
-        root = yaml.compose(text, Loader=yaml.SafeLoader)
-    except yaml.YAMLError:
-        return lines
-
-    def walk(node: yaml.Node, path: tuple[Any, ...]) -> None:
-        lines.setdefault(path, node.start_mark.line + 1)
-        if isinstance(node, yaml.MappingNode):
-            for key, value in node.value:
-                lines[(*path, key.value)] = key.start_mark.line + 1
-                walk(value, (*path, key.value))
-        elif isinstance(node, yaml.SequenceNode):
-            for i, value in enumerate(node.value):
-                walk(value, (*path, i))
-
-    if root is not None:
-        walk(root, ())
-    return lines
+def _color(default: Color) -> Vector:
+    return Vector(Int(0, "0-255", min=0, max=255), ("blue", "green", "red"), default=default)
 
 
-class _Reader:
-    """Validates one world document, turning every problem into a WorldError that says where it is."""
+_COORDINATE = Float(0.0, "metres in the map frame", min=-MAX_COORDINATE, max=MAX_COORDINATE)
+_POINT = Vector(_COORDINATE, ("x", "y"))
+_SIZE = Value(Float(0.1, "size in metres", min=0.0, max=MAX_SIZE), required=True, check=positive)
 
-    def __init__(self, path: Path, text: str) -> None:
-        self.path = path
-        self.lines = _yaml_lines(text)
 
-    def fail(self, where: tuple[Any, ...], message: str, label: str = "") -> WorldError:
-        line = next((self.lines[where[:n]] for n in range(len(where), 0, -1) if where[:n] in self.lines), None)
-        parts = [str(self.path)]
-        if line is not None:
-            parts.append(f"line {line}")
-        if label:
-            parts.append(label)
-        if len(where) > 2 and isinstance(where[1], int):
-            parts.append(f"field '{'.'.join(map(str, where[2:]))}'")
-        elif len(where) >= 1 and not isinstance(where[-1], int):
-            parts.append(f"field '{'.'.join(map(str, where))}'")
-        return WorldError(": ".join(parts) + f": {message}")
+def _thing_fields(shape: str, moving: bool, color: Color) -> dict[str, Any]:
+    """The table of one object or obstacle: common fields, the shape's sizes, a poster's image, a path."""
+    fields: dict[str, Any] = {
+        "name": Value(Str("", "the object's name"), required=True, check=not_blank),
+        "shape": Str("", "the shape"),
+    }
+    if not moving:
+        fields |= {"x": Value(_COORDINATE, required=True), "y": Value(_COORDINATE, required=True)}
+    fields |= {
+        "z": Float(0.0, "height of the base above the floor, metres", min=0.0, max=MAX_COORDINATE),
+        "yaw": Value(Float(0.0, "heading, radians", min=-MAX_YAW, max=MAX_YAW), default=None),
+        "color": _color(DEFAULT_POSTER_BACK if shape == "poster" else color),
+    }
+    fields |= {key: _SIZE for key in SIZE_FIELDS[shape]}
+    if shape == "poster":
+        fields["image"] = FilePath(required=True, doc="a poster shows an image file")
+    if moving:
+        fields["path"] = Vector(_POINT, ("start", "end"), required=True, doc="a speed needs a path")
+        fields["speed"] = Value(Float(0.5, "m/s", max=MAX_COORDINATE), required=True, check=positive)
+    return fields
 
-    def number(self, raw: dict[str, Any], key: str, where: tuple[Any, ...], label: str,
-               default: float | None = None, positive: bool = False, minimum: float | None = None) -> float:
-        if key not in raw:
-            if default is None:
-                raise self.fail(where, f"required field '{key}' is missing", label)
-            return default
-        value = finite_number(raw[key])
-        if value is None:
-            raise self.fail((*where, key), f"expected a number, got {shown_value(raw[key])}", label)
-        bound = MAX_YAW if key == "yaw" else MAX_COORDINATE
-        if abs(value) > bound:
-            raise self.fail((*where, key), f"must lie within ±{bound:g}, got {value!r}", label)
-        if positive and value <= 0.0:
-            raise self.fail((*where, key), f"must be positive, got {value!r}", label)
-        if minimum is not None and value < minimum:
-            raise self.fail((*where, key), f"must be at least {minimum:g}, got {value!r}", label)
-        return float(value)
 
-    def color(self, raw: dict[str, Any], key: str, where: tuple[Any, ...], label: str, default: Color) -> Color:
-        if key not in raw:
-            return default
-        value = raw[key]
-        if (not isinstance(value, list) or len(value) != 3
-                or not all(isinstance(v, int) and not isinstance(v, bool) and 0 <= v <= 255 for v in value)):
-            raise self.fail((*where, key), f"expected [blue, green, red] integers 0-255, got {value!r}", label)
-        return (int(value[0]), int(value[1]), int(value[2]))
+class _Thing(Free):
+    """One entry of ``objects`` or ``obstacles``: its shape (and whether it moves) chooses its table."""
 
-    def point(self, value: Any, where: tuple[Any, ...], label: str) -> tuple[float, float]:
-        numbers = [n for n in (finite_number(v) for v in value) if n is not None] if isinstance(value, list) else []
-        if len(numbers) != 2 or len(value) != 2:
-            raise self.fail(where, f"expected a point [x, y], got {shown_value(value)}", label)
-        x, y = numbers
-        if max(abs(x), abs(y)) > MAX_COORDINATE:
-            raise self.fail(where, f"must lie within ±{MAX_COORDINATE:g} m, got {shown_value(value)}", label)
-        return (x, y)
+    def __init__(self, section: str, shapes: tuple[str, ...], color: Color) -> None:
+        super().__init__(required=True)
+        self.section, self.shapes, self.color = section, shapes, color
 
-    def mapping(self, value: Any, where: tuple[Any, ...], what: str, label: str = "") -> dict[str, Any]:
+    def convert(self, value: Any, at: Place) -> WorldObject | MovingObstacle:
         if not isinstance(value, dict):
-            raise self.fail(where, f"expected a mapping of {what}, got {type(value).__name__}", label)
-        return value
-
-    def thing(self, raw: Any, section: str, index: int, shapes: tuple[str, ...],
-              default_color: Color) -> WorldObject | MovingObstacle:
-        where = (section, index)
-        label = f"{section}[{index}]"
-        raw = self.mapping(raw, where, "fields", label)
-        name = raw.get("name")
-        if not isinstance(name, str) or not name.strip():
-            if "name" not in raw:
-                raise self.fail(where, "required field 'name' is missing", label)
-            raise self.fail((*where, "name"), f"expected a non-empty name, got {name!r}", label)
-        label = f"{section[:-1]} '{name}' ({section}[{index}])"
-        shape = raw.get("shape")
-        if "shape" not in raw:
-            raise self.fail(where, "required field 'shape' is missing", label)
-        if shape not in shapes:
-            raise self.fail((*where, "shape"), f"expected one of {', '.join(shapes)}, got {shape!r}", label)
-        moving = "path" in raw or "speed" in raw
-        allowed = (_MOVING_FIELDS if moving else _COMMON_FIELDS) + SIZE_FIELDS[shape]
-        if shape == "poster":
-            allowed += ("image",)
-        for key in raw:
-            if key not in allowed:
-                hint = " (a moving obstacle has a path instead of x, y)" if moving and key in ("x", "y") else ""
-                raise self.fail((*where, key), f"unknown field for a {'moving ' if moving else ''}{shape}{hint}; "
-                                f"allowed: {', '.join(allowed)}", label)
-        sizes = {key: self.number(raw, key, where, label, positive=True) for key in SIZE_FIELDS[shape]}
-        for key, value in sizes.items():
-            if value > 1000.0:
-                raise self.fail((*where, key), f"unreasonably large ({value!r} m)", label)
-        z = self.number(raw, "z", where, label, default=0.0, minimum=0.0)
-        color = self.color(raw, "color", where, label, DEFAULT_POSTER_BACK if shape == "poster" else default_color)
+            raise Invalid(f"expected a mapping of an object's fields, got {type(value).__name__}")
+        if "name" not in value:
+            raise at.key("name").fail("missing")
+        if "shape" not in value:
+            raise at.key("shape").fail("missing")
+        shape = Value(Choice(self.shapes[0], self.shapes)).read(value["shape"], at.key("shape"))
+        moving = "path" in value or "speed" in value
+        if moving and self.section != "obstacles":
+            raise at.key("path" if "path" in value else "speed").fail("only obstacles can move")
+        raw = Record(_thing_fields(shape, moving, self.color)).read(value, at)
+        sizes = {key: raw[key] for key in SIZE_FIELDS[shape]}
+        if moving:
+            start, end = raw["path"]
+            yaw = raw["yaw"] if raw["yaw"] is not None else math.atan2(end[1] - start[1], end[0] - start[0])
+            body = WorldObject(raw["name"], shape, start[0], start[1], raw["z"], yaw, color=raw["color"], **sizes)
+            return MovingObstacle(body, start, end, raw["speed"])
         image, image_path = None, None
         if shape == "poster":
-            image_path, image = self.poster_image(raw, where, label)
-        if moving:
-            if section != "obstacles":
-                raise self.fail((*where, "path"), "only obstacles can move", label)
-            if "path" not in raw:
-                raise self.fail(where, "required field 'path' is missing (a speed needs a path)", label)
-            path = raw["path"]
-            if not isinstance(path, list) or len(path) != 2:
-                raise self.fail((*where, "path"), f"expected two points [[x0, y0], [x1, y1]], got {path!r}", label)
-            start = self.point(path[0], (*where, "path", 0), label)
-            end = self.point(path[1], (*where, "path", 1), label)
-            speed = self.number(raw, "speed", where, label, positive=True)
-            heading = math.atan2(end[1] - start[1], end[0] - start[0])
-            yaw = self.number(raw, "yaw", where, label, default=heading)
-            body = WorldObject(name, shape, start[0], start[1], z, yaw, color=color, **sizes)
-            return MovingObstacle(body, start, end, speed)
-        x = self.number(raw, "x", where, label)
-        y = self.number(raw, "y", where, label)
-        yaw = self.number(raw, "yaw", where, label, default=0.0)
-        return WorldObject(name, shape, x, y, z, yaw, color=color, image=image, image_path=image_path, **sizes)
+            image_path = raw["image"]
+            try:
+                image = read_image(image_path)
+            except InputError as exc:
+                raise at.key("image").fail(f"image file {image_path}: {exc.message}") from None
+        return WorldObject(raw["name"], shape, raw["x"], raw["y"], raw["z"], raw["yaw"] or 0.0, color=raw["color"],
+                           image=image, image_path=image_path, **sizes)
 
-    def poster_image(self, raw: dict[str, Any], where: tuple[Any, ...], label: str) -> tuple[Path, np.ndarray]:
-        if "image" not in raw:
-            raise self.fail(where, "required field 'image' is missing (a poster shows an image file)", label)
-        name = raw["image"]
-        if not isinstance(name, str) or not name.strip():
-            raise self.fail((*where, "image"), f"expected an image file name, got {name!r}", label)
-        image_path = Path(name)
-        if not image_path.is_absolute():
-            image_path = self.path.parent / image_path
-        try:
-            image = read_image(image_path)
-        except InputError as exc:
-            raise self.fail((*where, "image"), f"image file {image_path}: {exc.message}", label) from None
-        return image_path, image
+    def describe(self) -> str:
+        return f"an {self.section[:-1]}: a mapping of name, shape, ..."
+
+
+#: What a world file holds.
+WORLD_FIELDS = Record({
+    "map": FilePath(doc="the map YAML this world belongs to"),
+    "walls": Record({"height": Value(Float(2.0, "metres", max=MAX_SIZE), check=positive),
+                     "color": _color(DEFAULT_WALL_COLOR)}),
+    "floor": Record({"color": _color(DEFAULT_FLOOR_COLOR)}),
+    "background": Record({"color": _color(DEFAULT_BACKGROUND_COLOR)}),
+    "objects": ListOf(_Thing("objects", OBJECT_SHAPES, DEFAULT_OBJECT_COLOR), null_is_empty=True),
+    "obstacles": ListOf(_Thing("obstacles", OBSTACLE_SHAPES, DEFAULT_OBSTACLE_COLOR), null_is_empty=True),
+}, null_is_empty=True)
+
+
+def _world(document: Document) -> World:
+    """The world a parsed document describes, every field checked against :data:`WORLD_FIELDS`."""
+    at = document.root
+    raw = WORLD_FIELDS.read(document.data, at)
+    seen: dict[str, str] = {}
+    for section in ("objects", "obstacles"):
+        for i, thing in enumerate(raw[section]):
+            if thing.name in seen:
+                raise at.key(section).item(i).key("name").fail(f"the name is already used by {seen[thing.name]}")
+            seen[thing.name] = f"{section}[{i}]"
+    return World(raw["objects"], raw["obstacles"], wall_height=raw["walls"]["height"],
+                 wall_color=raw["walls"]["color"], floor_color=raw["floor"]["color"],
+                 background_color=raw["background"]["color"], source=document.path, map_path=raw["map"])
 
 
 def read_image(path: Path) -> np.ndarray:
@@ -514,66 +473,12 @@ def read_image(path: Path) -> np.ndarray:
 
 def parse_world(text: str, path: str | Path = "<world>") -> World:
     """Validate the text of a world file; ``path`` names it in errors and anchors relative file names."""
-    path = Path(path)
-    try:
-        raw = yaml_text(text, path, WORLD_YAML_LIMITS)
-    except InputError as exc:
-        raise WorldError(long_integer_message(text, exc)) from None
-    reader = _Reader(path, text)
-    if raw is None:
-        raw = {}
-    raw = reader.mapping(raw, (), "world fields (objects, obstacles, walls, floor, background, map)")
-    known = ("map", "walls", "floor", "background", "objects", "obstacles")
-    for key in raw:
-        if key not in known:
-            raise reader.fail((key,), f"unknown field; allowed: {', '.join(known)}")
-    settings: dict[str, Any] = {}
-    map_path = None
-    if "map" in raw:
-        if not isinstance(raw["map"], str) or not raw["map"].strip():
-            raise reader.fail(("map",), f"expected a map YAML file name, got {raw['map']!r}")
-        map_path = Path(raw["map"])
-        if not map_path.is_absolute():
-            map_path = path.parent / map_path
-    for key, fields, default in (("walls", ("height", "color"), DEFAULT_WALL_COLOR),
-                                 ("floor", ("color",), DEFAULT_FLOOR_COLOR),
-                                 ("background", ("color",), DEFAULT_BACKGROUND_COLOR)):
-        if key not in raw:
-            continue
-        section = reader.mapping(raw[key], (key,), ", ".join(fields))
-        for sub in section:
-            if sub not in fields:
-                raise reader.fail((key, sub), f"unknown field; allowed: {', '.join(fields)}")
-        settings[f"{'wall' if key == 'walls' else key}_color"] = reader.color(section, "color", (key,), "", default)
-        if key == "walls":
-            settings["wall_height"] = reader.number(section, "height", (key,), "", default=2.0, positive=True)
-    things: dict[str, list[Any]] = {"objects": [], "obstacles": []}
-    seen: dict[str, str] = {}
-    for section, shapes, colour in (("objects", OBJECT_SHAPES, DEFAULT_OBJECT_COLOR),
-                                    ("obstacles", OBSTACLE_SHAPES, DEFAULT_OBSTACLE_COLOR)):
-        items = raw.get(section) or []
-        if not isinstance(items, list):
-            raise reader.fail((section,), f"expected a list of {section}, got {type(items).__name__}")
-        for i, item in enumerate(items):
-            thing = reader.thing(item, section, i, shapes, colour)
-            if thing.name in seen:
-                raise reader.fail((section, i, "name"), f"the name is already used by {seen[thing.name]}",
-                                  f"{section[:-1]} '{thing.name}' ({section}[{i}])")
-            seen[thing.name] = f"{section}[{i}]"
-            things[section].append(thing)
-    return World(tuple(things["objects"]), tuple(things["obstacles"]), source=path, map_path=map_path, **settings)
+    return _world(document_from_text(text, path, WORLD_YAML_LIMITS))
 
 
 def load_world(path: str | Path) -> World:
-    """Load a world file; raises :class:`WorldError` naming the file, line, object and field on bad input."""
-    path = Path(path)
-    try:
-        text = read_text(path, WORLD_YAML_LIMITS.max_bytes)
-    except InputError as exc:
-        if exc.message == "file not found":
-            raise WorldError(f"{path}: world file not found") from None
-        raise WorldError(str(exc)) from None
-    world = parse_world(text, path)
+    """Load a world file; raises :class:`DocumentError` naming the file, line, key path and value on bad input."""
+    world = _world(read_document(path, WORLD_YAML_LIMITS, "world"))
     log.info("loaded world %s: %d objects, %d obstacles", path, len(world.objects), len(world.obstacles))
     return world
 

@@ -11,7 +11,9 @@ Build a pipeline in a script::
         print(objects.to_json())
 
 The apps reach all of this through the kind contract (``objrec_core.get_kind("2d")``, ``open_source(spec,
-"2d")``) and the entry points; this package imports neither Qt nor the 3D kind.
+"2d")``) and the entry points; this package imports neither Qt nor the 3D kind, nor ``objrec_ros``: the bag
+source (``objrec2d.bag_source``) is not imported here, and the registry reaches it through its declaration
+(``objrec2d.bag_declaration``) only when a spec names a bag, so a 2D run loads no ROS code.
 """
 
 from .annotate import draw_objects

@@ -4,7 +4,8 @@
 folder. Without ``topic`` the recording's only image topic is read; depth images (16UC1, 32FC1) do not count,
 they are 3D data. Frames are BGR (colour, alpha dropped) or single-channel uint8 (mono8; mono16 scaled to 8
 bits), with the message's header stamp and frame_id. Compressed images (jpeg, png) are decoded with OpenCV
-here, which is why this lives in objrec2d and not in objrec_ros.
+here, which is why this lives in objrec2d and not in objrec_ros. The registry knows this source's forms from
+:mod:`objrec2d.bag_declaration` and imports this module (and objrec_ros) only when a spec names a bag.
 """
 
 from __future__ import annotations
@@ -22,6 +23,7 @@ from objrec_ros.decode import COMPRESSED_IMAGE, IMAGE, DecodeError, encoding_of,
 from objrec_ros.source import BagSource, Decoded
 from strictio import InputError
 
+from .bag_declaration import IMAGE_BAG
 from .sources import decode_image
 
 
@@ -62,7 +64,7 @@ class ImageBagSource(BagSource):
     """The images of one topic of a ROS 1 bag, a ROS 2 bag (sqlite3 or MCAP) or an MCAP file."""
 
     kind = "2d"
-    summary = "bag:PATH[,topic=NAME,start=S,end=S,rate=R] (or a .bag/.mcap file or ROS 2 bag folder): images"
+    summary = IMAGE_BAG.summary
     noun = "image"
     readable_types = "sensor_msgs/Image or sensor_msgs/CompressedImage"
 

@@ -3,8 +3,8 @@
 A blob that touches the image border is cut off by the frame, or is the background itself (a filter that let
 everything through turns the whole frame into one blob, whose outline is only 2,236 px on a 640x480 frame):
 neither is an object unless ``border_blobs`` asks for them. A blob covering most of the image is dropped too
-(``max_area_fraction``), so the background stays out even then. When nothing is kept, ``last_reason`` says
-which rule dropped the blobs, with numbers to tune by.
+(``max_area_fraction``), so the background stays out even then. When nothing is kept, the result's ``reason``
+says which rule dropped the blobs, with numbers to tune by.
 """
 
 from __future__ import annotations
@@ -16,6 +16,7 @@ import cv2
 import numpy as np
 
 from objrec_core import Bool, Float, Ordered
+from objrec_core.modules import Detections
 
 from .base import ImageDetector, as_gray
 from .messages import DetectedObject2D, Polygon
@@ -60,16 +61,8 @@ class BinaryDetector(ImageDetector):
         min=0.0, max=1.0, step=0.01,
     )
 
-    def __init__(self, id: str | None = None, *, object_name: str | None = None, **parameters: Any) -> None:
-        self._last_reason: str | None = None
-        super().__init__(id, object_name=object_name, **parameters)
-
-    @property
-    def last_reason(self) -> str | None:
-        """Why the last frame gave no object: an empty mask, or which rules dropped how many blobs."""
-        return self._last_reason
-
-    def detect(self, frame: np.ndarray) -> list[DetectedObject2D]:
+    def detect(self, frame: np.ndarray) -> Detections:
+        """The kept blobs; when none, the reason is an empty mask, or which rules dropped how many blobs."""
         p = self.params
         lo, hi = p.min_contour_length, p.max_contour_length
         mask = as_gray(frame)
@@ -98,14 +91,14 @@ class BinaryDetector(ImageDetector):
                 continue
             hull = cv2.convexHull(contour)
             found.append(DetectedObject2D(name, Polygon.from_xy(hull.reshape(-1, 2))))
-        self._last_reason = None if found else self._reason(len(contours), dropped)
-        return found
+        return Detections(found, None if found else self._reason(len(contours), dropped, p))
 
-    def _reason(self, blobs: int, dropped: _Dropped) -> str:
-        """Why no blob was kept: each rule with its count and the value nearest to passing it."""
+    @staticmethod
+    def _reason(blobs: int, dropped: _Dropped, p: Any) -> str:
+        """Why no blob was kept: each rule with its count and the value nearest to passing it (``p``: the
+        frame's parameter snapshot, so the numbers are the ones the frame was judged by)."""
         if blobs == 0:
             return "no blob: the mask has no non-zero pixel (the filters before let nothing through)"
-        p = self.params
         parts = []
         if dropped.short:
             parts.append(f"{len(dropped.short)} shorter than min_contour_length {p.min_contour_length:g} px "

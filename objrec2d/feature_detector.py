@@ -3,8 +3,8 @@
 A user selects a rectangle around the object once; the detector keeps the image of the selection and its
 keypoints (the *target*). In each frame it computes keypoints and descriptors, matches them with the
 target's, fits a homography to the matches and reports the selection's outline as it appears in the frame,
-after checking that the outline is a plausible view of a flat object. When it reports nothing,
-``last_reason`` says why.
+after checking that the outline is a plausible view of a flat object. When it reports nothing, the result's
+``reason`` says why; its ``details`` are the frame's ``FeatureMatch`` and target, which the debug view draws.
 """
 
 from __future__ import annotations
@@ -19,6 +19,7 @@ import cv2
 import numpy as np
 
 from objrec_core import Bool, Change, Choice, Float, Int, Rect, SelectionRefused
+from objrec_core.modules import Detections
 
 from .base import ImageDetector, as_gray
 from .features.debug import keypoints_view, side_by_side
@@ -59,7 +60,7 @@ log = logging.getLogger(__name__)
 
 DEBUG_VIEWS = ("side_by_side", "keypoints")
 
-#: What ``ready`` and ``last_reason`` say while no target is selected.
+#: What ``ready`` and a frame's reason say while no target is selected.
 NO_TARGET = "no target: select one in objrec-define (drag a rectangle around the object)"
 #: Attempts per frame beyond ``max_instances``: a copy found again (a duplicate) costs one and is not reported.
 EXTRA_ATTEMPTS = 2
@@ -186,8 +187,7 @@ class FeatureDetector(ImageDetector):
         self._model: _Model | None = None
         self._model_lock = threading.RLock()
         self._failed: tuple[FeatureConfig, str] | None = None  # a recompute that failed, not retried per frame
-        self._extractor: tuple[FeatureConfig, Any] | None = None  # the frame thread's own cv2.Feature2D
-        self._last: tuple[FeatureMatch, Target | None] | None = None
+        self._extractors = threading.local()  # each frame thread's own cv2.Feature2D, with its configuration
         super().__init__(id, object_name=object_name, **parameters)
 
     # -- parameters ------------------------------------------------------------------------------------
@@ -288,14 +288,16 @@ class FeatureDetector(ImageDetector):
 
     # -- detection -------------------------------------------------------------------------------------
     def _frame_extractor(self, config: FeatureConfig) -> Any:
-        cached = self._extractor
+        """This thread's keypoint extractor: OpenCV's are not safe to share between threads running at once."""
+        cached = getattr(self._extractors, "cached", None)
         if cached is None or cached[0] != config:
             cached = (config, create_feature2d(config))
-            self._extractor = cached
+            self._extractors.cached = cached
         return cached[1]
 
-    def detect(self, frame: np.ndarray) -> list[DetectedObject2D]:
-        """Every copy of the target in the frame, up to ``max_instances``, the best supported first.
+    def detect(self, frame: np.ndarray) -> Detections:
+        """Every copy of the target in the frame, up to ``max_instances``, the best supported first; the
+        result's ``details`` are ``(FeatureMatch, target)``, its ``reason`` the match's when nothing was found.
 
         After each copy its inlier matches and the frame keypoints inside its outline are set aside and the
         remaining keypoints matched again (one-to-one, so copies do not compete for target keypoints); an
@@ -351,8 +353,8 @@ class FeatureDetector(ImageDetector):
             DetectionStatus.FOUND, None, frame.shape, frame_points, first.matches, first.inliers, first.homography,
             first.quadrilateral, first.coverage, tuple(instances), next_reason,
         )
-        self._finish(found, target)
-        return [DetectedObject2D(self.object_name, Polygon.from_xy(i.quadrilateral.tolist())) for i in instances]
+        objects = [DetectedObject2D(self.object_name, Polygon.from_xy(i.quadrilateral.tolist())) for i in instances]
+        return self._finish(found, target, objects)
 
     def _attempt(
         self, target: Target, frame_points: np.ndarray, matches: Matches, frame_shape: tuple[int, ...], keypoints: int
@@ -400,29 +402,10 @@ class FeatureDetector(ImageDetector):
             return _with(found, status=DetectionStatus.DEGENERATE_POLYGON, reason=reason, quadrilateral=quadrilateral)
         return Instance(matches, inliers, homography, quadrilateral, coverage)
 
-    def _finish(self, result: FeatureMatch, target: Target | None) -> list[DetectedObject2D]:
-        previous = self._last
-        if previous is None or previous[0].status is not result.status:
-            log.debug("%s: %s", self.label, result.reason or "found")
-        self._last = (result, target)
-        return []
-
-    @property
-    def last_result(self) -> FeatureMatch | None:
-        """The last frame's attempt: status, reason, keypoints, matches, inliers, homography."""
-        last = self._last
-        return last[0] if last is not None else None
-
-    @property
-    def last_reason(self) -> str | None:
-        """Why the last frame reported no object (None when it reported one, or before any frame)."""
-        last = self._last
-        return last[0].reason if last is not None else None
-
-    @property
-    def last_status(self) -> DetectionStatus | None:
-        last = self._last
-        return last[0].status if last is not None else None
+    def _finish(self, result: FeatureMatch, target: Target | None, objects: list[DetectedObject2D] | None = None
+                ) -> Detections:
+        log.debug("%s: %s", self.label, result.reason or "found")
+        return Detections(objects or [], result.reason, (result, target))
 
     def ready(self) -> str | None:
         """None when a target is selected that can be found with the current settings; else why not."""
@@ -441,9 +424,10 @@ class FeatureDetector(ImageDetector):
 
     # -- views -----------------------------------------------------------------------------------------
     def render_debug(self, frame: np.ndarray, objects: list[Any]) -> np.ndarray | None:
-        """The stage view: the side-by-side match view (default) or keypoints on the frame."""
-        last = self._last
-        result, target = last if last is not None else (None, self.target)
+        """The stage view: the side-by-side match view (default) or keypoints on the frame, drawn from the
+        details ``objects`` (this frame's ``detect`` result) carries."""
+        details = getattr(objects, "details", None)
+        result, target = details if details is not None else (None, self.target)
         if result is not None and tuple(result.frame_shape[:2]) != tuple(frame.shape[:2]):
             result = None  # a result from another frame would put points in the wrong places
         if self.params.debug_view == "keypoints":
@@ -481,7 +465,6 @@ class FeatureDetector(ImageDetector):
 
     def apply_state(self, prepared: _Model | None) -> None:
         self._install(prepared)
-        self._last = None
 
 
 def _check_image(frame: Any) -> None:

@@ -40,7 +40,10 @@ class ImageKind(Kind):
                 for o in objects.objects]
 
     def from_rgbd(self, color: Any, depth: Any, fx: float, fy: float, cx: float, cy: float) -> np.ndarray:
-        """The colour image (a copy): image pipelines need nothing else of an RGB-D frame."""
+        """The colour image (a copy): image pipelines need nothing else of an RGB-D frame.
+
+        Not part of the ``Kind`` contract: this makes the kind an ``objrec_apps.inspection.TakesRGBD``, which
+        the inspection patrol checks for (structurally, so this package does not import the app)."""
         self.check_frame(color)
         return np.array(color, dtype=np.uint8, copy=True)
 

@@ -6,7 +6,6 @@ from __future__ import annotations
 import contextlib
 import logging
 import os
-import re
 import threading
 import time
 from collections.abc import Callable, Iterator
@@ -17,6 +16,8 @@ import cv2
 import numpy as np
 
 from objrec_core import Frame, FrameSource, Int, SourceError, SourceSpec
+from objrec_core.demo_source import DemoSceneSource
+from objrec_core.folder_source import FolderFilesSource, PathSource, file_stamp
 from strictio import IMAGE_PIXELS, InputError, open_input
 from strictio.image_size import check_image_pixels, read_image_file, truncation
 from strictio.limits import check
@@ -31,11 +32,6 @@ VIDEO_SUFFIXES = (".avi", ".mp4", ".mkv", ".mov", ".m4v", ".mpg", ".mpeg", ".web
 #: a broken video in one line of its own. OpenCV reads this when it first uses FFmpeg (a capture or a video
 #: writer), hence at import; a user's own setting wins.
 os.environ.setdefault("OPENCV_FFMPEG_LOGLEVEL", "-8")
-
-
-def _natural_key(path: Path) -> list[object]:
-    """frame2.png before frame10.png."""
-    return [int(t) if t.isdigit() else t.lower() for t in re.split(r"(\d+)", path.name)]
 
 
 _quiet_lock = threading.Lock()
@@ -96,21 +92,16 @@ def read_image(path: Path) -> np.ndarray:
     return decode_image(data, str(path))
 
 
-class ImageFileSource(FrameSource):
+class ImageFileSource(PathSource):
     """One image, given once (or ``repeat`` times, to tune on a still picture)."""
 
     kind = "2d"
     extensions = IMAGE_SUFFIXES
     summary = "an image file"
 
-    @classmethod
-    def from_spec(cls, spec: SourceSpec, options: dict[str, Any]) -> ImageFileSource:
-        assert spec.path is not None
-        return cls(spec.path)
-
-    def __init__(self, path: str | Path, repeat: int = 1) -> None:
+    def __init__(self, path: str | Path, repeat: int = 1, name: str | None = None) -> None:
         self.path = Path(path)
-        self.name = str(path)
+        self.name = name if name is not None else str(path)
         self.repeat = repeat
         self._image = read_image(self.path)
 
@@ -118,75 +109,21 @@ class ImageFileSource(FrameSource):
     def length(self) -> int:
         return self.repeat
 
-    @property
-    def seekable(self) -> bool:
-        return True
-
-    def __iter__(self) -> Iterator[Frame]:
-        return self.frames_from(0)
-
     def frames_from(self, index: int) -> Iterator[Frame]:
-        stamp = self.path.stat().st_mtime
+        stamp = file_stamp(self.path)
         for number in range(max(0, index), self.repeat):
             yield Frame(self._image, stamp, number, self.name)
 
 
-class FolderSource(FrameSource):
+class FolderSource(FolderFilesSource):
     """Every image in a folder, in natural order. A file that cannot be decoded is reported and skipped."""
 
     kind = "2d"
-    folders = True
+    file_suffixes = IMAGE_SUFFIXES  # not ``extensions``: one image given alone is an ImageFileSource
+    what = "images"
+    none_readable = "{name}: no readable image in the folder: none of its {count} {what} could be read"
     summary = "a folder of images"
-
-    @classmethod
-    def from_spec(cls, spec: SourceSpec, options: dict[str, Any]) -> FolderSource:
-        assert spec.path is not None
-        return cls(spec.path)
-
-    def __init__(self, path: str | Path) -> None:
-        self.path = Path(path)
-        self.name = str(path)
-        try:
-            entries = list(self.path.iterdir())
-        except OSError as exc:
-            raise SourceError(f"{path}: cannot list the folder: {exc.strerror or exc}") from None
-        self.files = sorted(
-            (p for p in entries if p.suffix.lower() in IMAGE_SUFFIXES and not p.is_dir()), key=_natural_key
-        )
-        if not self.files:
-            raise SourceError(f"{path}: folder holds no images ({', '.join(sorted(IMAGE_SUFFIXES))})")
-        self.skipped: list[Path] = []
-
-    @property
-    def length(self) -> int:
-        return len(self.files)
-
-    @property
-    def seekable(self) -> bool:
-        return True
-
-    def __iter__(self) -> Iterator[Frame]:
-        return self.frames_from(0)
-
-    def frames_from(self, index: int) -> Iterator[Frame]:
-        """From the ``index``-th image on; each frame's ``source`` is its file, so a viewer can name it. A file
-        that cannot be read is skipped with one warning; a folder none of whose images can be read is an error
-        (once the whole folder was tried)."""
-        start = max(0, index)
-        read = 0
-        for number, file in enumerate(self.files[start:], start):
-            try:
-                image = read_image(file)
-            except InputError as exc:
-                log.warning("%s; skipped", exc)
-                if file not in self.skipped:
-                    self.skipped.append(file)
-                continue
-            read += 1
-            yield Frame(image, file.stat().st_mtime, number, str(file))
-        if read == 0 and (start == 0 or len(self.skipped) == len(self.files)):
-            raise SourceError(f"{self.name}: no readable image in the folder: none of its {len(self.files)} "
-                              "images could be read")
+    read_file = staticmethod(read_image)
 
 
 class CaptureSource(FrameSource):
@@ -397,43 +334,20 @@ class CameraSource(CaptureSource):
                          opener=opener)
 
 
-class DemoSource(FrameSource):
+class DemoSource(DemoSceneSource):
     """The synthetic demo scene, endless unless ``frames`` is given; frames carry ground truth."""
 
     kind = "2d"
-    schemes = ("demo",)
-    options = {  # noqa: RUF012 - declarations, never mutated
-        "seed": Int(0, "random seed of the scene's layout and noise", min=0, max=2**31 - 1),
-        "frames": Int(0, "how many frames (0: endless)", min=0),
-    }
-    positional = ("seed",)
     summary = "demo[:seed=N,frames=N], coloured shapes and a textured poster with ground truth"
-
-    @classmethod
-    def from_spec(cls, spec: SourceSpec, options: dict[str, Any]) -> DemoSource:
-        return cls(options["seed"], options["frames"] or None, name=spec.text)
+    FPS = FPS  # the scene's own rate (objrec2d.demo)
 
     def __init__(self, seed: int = 0, frames: int | None = None, scene: DemoScene | None = None,
                  name: str | None = None) -> None:
+        super().__init__(seed, frames, name)
         self.scene = scene if scene is not None else DemoScene(seed=seed)
-        self.name = name or ("demo" if seed == 0 else f"demo:seed={seed}")
-        self.frames = frames
 
-    @property
-    def length(self) -> int | None:
-        return self.frames
-
-    @property
-    def rate(self) -> float:
-        return float(FPS)
-
-    def __iter__(self) -> Iterator[Frame]:
-        start = time.time()
-        index = 0
-        while self.frames is None or index < self.frames:
-            image, truth = self.scene.render(index)
-            yield Frame(image, start + index / FPS, index, self.name, truth)
-            index += 1
+    def render(self, index: int) -> tuple[np.ndarray, Any]:
+        return self.scene.render(index)
 
 
 def open_source(spec: str) -> FrameSource:

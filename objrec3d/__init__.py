@@ -3,8 +3,9 @@
 The cloud type (``PointCloud``), its sources (``open_source``: ``demo``, .pcd/.ply files and folders,
 ``rgbd:`` colour and depth pairs, ``realsense``), the modules ``DistanceFilter``, ``VoxelFilter``,
 ``PlaneRemovalFilter`` and ``ShapeDetector``, the ``DetectedObject3D`` messages and the kind itself
-(``CloudKind``). Open3D is imported only where a conversion or a PLY/RGB-D read needs it, OpenCV only to draw
-``--annotate`` pictures; Qt and the 2D kind never.
+(``CloudKind``). PCD and PLY files are read by NumPy through strictio (``pcd.py``, ``ply.py``); Open3D is
+imported only where a conversion or an RGB-D or RealSense read needs it, OpenCV only to draw ``--annotate``
+pictures; Qt and the 2D kind never.
 """
 
 from .base import CloudDetector, CloudFilter
@@ -17,8 +18,9 @@ from .messages import DetectedObject3D, DetectedObject3DArray, OrientedBox, Poin
 from .normals import estimate_normals, grid_normals, knn_normals
 from .pcd import CloudFileError, read_pcd, write_pcd
 from .plane_removal_filter import PlaneRemovalFilter
+from .ply import read_ply
 from .shape_detector import ShapeDetector
-from .sources import DemoSource, FileSource, RealSenseSource, RGBDSource, open_source, read_cloud, read_ply
+from .sources import DemoSource, FileSource, RealSenseSource, RGBDSource, open_source, read_cloud
 from .tracking import IdentityTracker
 from .voxel_filter import VoxelFilter
 

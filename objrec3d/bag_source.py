@@ -8,6 +8,8 @@ the only CameraInfo topic (with several, the one in the depth topic's namespace)
 so far is used for each depth image (the first one of the recording before any arrives). ``color_topic`` (an
 Image topic, given explicitly) colours the points: each depth image takes the colour image nearest to it by
 header stamp. Back-projection is the RGB-D source's (``rgbd:``), so the same pixels give the same points.
+The registry knows this source's forms from :mod:`objrec3d.bag_declaration` and imports this module (and
+objrec_ros) only when a spec names a bag.
 """
 
 from __future__ import annotations
@@ -32,6 +34,7 @@ from objrec_ros.decode import (
 )
 from objrec_ros.source import BagSource, Decoded, topic_names
 
+from .bag_declaration import CLOUD_BAG
 from .cloud import PointCloud
 
 #: Depth encodings a named depth topic may have (mono16 is taken as millimetres, as drivers publish it).
@@ -58,8 +61,7 @@ class CloudBagSource(BagSource):
         "info_topic": Str("", "the CameraInfo topic of a depth topic (default: the only one)"),
         "color_topic": Str("", "an Image topic colouring a depth topic's points (default: none)"),
     }
-    summary = ("bag:PATH[,topic=NAME,info_topic=NAME,color_topic=NAME,start=S,end=S,rate=R] (or a .bag/.mcap "
-               "file or ROS 2 bag folder): PointCloud2 or depth images")
+    summary = CLOUD_BAG.summary
     noun = "point-cloud"
     readable_types = "sensor_msgs/PointCloud2, or a depth sensor_msgs/Image with a CameraInfo topic"
 

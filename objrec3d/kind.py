@@ -49,7 +49,10 @@ class CloudKind(Kind):
         return data.points
 
     def from_rgbd(self, color: Any, depth: Any, fx: float, fy: float, cx: float, cy: float) -> PointCloud:
-        """An organized cloud in the optical frame (x right, y down, z forward), RGB colours, NaN for no return."""
+        """An organized cloud in the optical frame (x right, y down, z forward), RGB colours, NaN for no return.
+
+        Not part of the ``Kind`` contract: this makes the kind an ``objrec_apps.inspection.TakesRGBD``, which
+        the inspection patrol checks for (structurally, so this package does not import the app)."""
         z = np.asarray(depth, dtype=np.float32)
         rgb = np.asarray(color)
         if z.ndim != 2 or rgb.shape[:2] != z.shape or rgb.ndim != 3 or rgb.shape[2] != 3:

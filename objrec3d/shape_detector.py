@@ -21,6 +21,7 @@ from typing import Any
 import numpy as np
 
 from objrec_core import Choice, Float, Int, Ordered
+from objrec_core.modules import Detections
 
 from .base import CloudDetector
 from .cloud import PointCloud, as_cloud
@@ -31,6 +32,11 @@ from .tracking import IdentityTracker
 from .vec import dot3
 
 log = logging.getLogger(__name__)
+
+#: Rounds in a row whose every fit was rejected before the search gives up: the rejected fits' points are set
+#: aside and the search tried again, but after this many the cloud has nothing left that is the shape (as many
+#: as ``max_objects=1`` always allowed; a larger ``max_objects`` no longer repeats them up to its own count).
+REJECTED_ROUNDS = 11
 
 #: The shapes one detector can look for, alone or together (joined by "+", always in this order).
 SHAPES = ("cylinder", "sphere", "plane")
@@ -95,38 +101,35 @@ class ShapeDetector(CloudDetector):
                       "objects", min=0, max=2**31 - 1)
 
     def __init__(self, id: str | None = None, *, object_name: str | None = None, **parameters: Any) -> None:
-        self._last_reason: str | None = None
         #: Gives each object an ``id`` that stays while the object does, frame after frame.
         self.tracker = IdentityTracker()
         super().__init__(id, object_name=object_name, **parameters)
 
-    @property
-    def last_reason(self) -> str | None:
-        """Why the last cloud gave no object: too few points, no hypothesis in the radius range, or the best
-        fit's failed check with its numbers."""
-        return self._last_reason
-
-    def detect(self, frame: Any) -> list[DetectedObject3D]:
+    def detect(self, frame: Any) -> Detections:
+        """The shapes found; when none, the reason is too few points, no hypothesis in the radius range, or
+        the best fit's failed check with its numbers."""
         cloud = as_cloud(frame)
-        tracked = self.tracker.assign([self._to_object(found, cloud.sensor_origin) for found in self.find(cloud)])
+        found, reason = self.search(cloud)
+        tracked = self.tracker.assign([self._to_object(f, cloud.sensor_origin) for f in found])
         # Prefixed with this detector's id: two detectors' objects in one message never share an id.
-        return [dataclasses.replace(obj, id=f"{self.id}-{obj.id}") for obj in tracked]
+        return Detections([dataclasses.replace(obj, id=f"{self.id}-{obj.id}") for obj in tracked], reason)
 
     # -- the search ------------------------------------------------------------------------------------------
     def find(self, cloud: PointCloud) -> list[Found]:
         """The accepted fits (indices of ``fit.inliers`` are into the valid points that have normals, see
-        ``points_with_normals``). Sets ``last_reason`` when there are none."""
+        ``points_with_normals``); ``search`` also says why there are none."""
+        return self.search(cloud)[0]
+
+    def search(self, cloud: PointCloud) -> tuple[list[Found], str | None]:
+        """The accepted fits, and why there are none (None when there are some)."""
         p = self.params
         shapes = p.shape.split("+")
         points, normals, _, from_grid = self._points_with_normals(cloud, p)
-        self._last_reason = None
         if points.shape[0] < p.min_inliers:
             valid = cloud.count_valid()
-            self._last_reason = (f"too few points: {points.shape[0]} with normals (of {valid} valid) < min_inliers "
-                                 f"{p.min_inliers}")
+            reason = f"too few points: {points.shape[0]} with normals (of {valid} valid) < min_inliers {p.min_inliers}"
             why = no_surface(cloud.points[cloud.valid_mask()]) if points.shape[0] == 0 else ""
-            self._last_reason += f"; {why}, no surface to fit" if why else ""
-            return []
+            return [], reason + (f"; {why}, no surface to fit" if why else "")
         settings = ShapeSettings(
             shape="cylinder", min_radius=p.min_radius, max_radius=p.max_radius,
             threshold=p.distance_threshold, normal_weight=p.normal_distance_weight,
@@ -137,7 +140,9 @@ class ShapeDetector(CloudDetector):
         found: list[Found] = []
         reasons: dict[str, str] = {}
         attempts = p.max_objects + 10  # a rejected fit's points are set aside and the search goes on
-        while len(found) < p.max_objects and attempts > 0 and alive.size >= p.min_inliers:
+        rejected_rounds = 0
+        while (len(found) < p.max_objects and attempts > 0 and rejected_rounds < REJECTED_ROUNDS
+               and alive.size >= p.min_inliers):
             attempts -= 1
             accepted: list[Found] = []
             rejected: list[np.ndarray] = []
@@ -155,8 +160,12 @@ class ShapeDetector(CloudDetector):
             if not accepted:
                 if not rejected:
                     break
-                alive = np.setdiff1d(alive, np.concatenate(rejected), assume_unique=False)
+                rejected_rounds += 1
+                keep = np.ones(points.shape[0], dtype=bool)  # a mask, not setdiff1d: no sort of every point
+                keep[np.concatenate(rejected)] = False
+                alive = alive[keep[alive]]
                 continue
+            rejected_rounds = 0
             # The strongest fit first; others of this round too when they share (almost) no points with it.
             accepted.sort(key=lambda f: -f.fit.inliers.size)
             taken = np.zeros(points.shape[0], dtype=bool)
@@ -168,11 +177,11 @@ class ShapeDetector(CloudDetector):
                 found.append(candidate)
                 taken[candidate.fit.inliers] = True
             alive = alive[~taken[alive]]
-        if not found:
-            if alive.size < p.min_inliers and not reasons:
-                reasons["all"] = f"{alive.size} points left < min_inliers {p.min_inliers}"
-            self._last_reason = "; ".join(f"{k}: {v}" for k, v in reasons.items()) or "no fit"
-        return found
+        if found:
+            return found, None
+        if alive.size < p.min_inliers and not reasons:
+            reasons["all"] = f"{alive.size} points left < min_inliers {p.min_inliers}"
+        return found, "; ".join(f"{k}: {v}" for k, v in reasons.items()) or "no fit"
 
     def _search(self, shape: str, points: np.ndarray, normals: np.ndarray, alive: np.ndarray,
                 settings: ShapeSettings, rng: np.random.Generator, sensor: np.ndarray, p: Any

@@ -1,8 +1,9 @@
 """Point-cloud sources (plug-ins of the ``objrec.sources`` group), named with the same grammar as every source.
 
 - ``demo`` / ``demo:3`` / ``demo:seed=3,frames=50``: the synthetic scene (``demo.py``), with ground truth.
-- ``PATH.pcd`` / ``PATH.ply``: one file; ``FOLDER``: every .pcd/.ply in it, in name order (one that cannot
-  be read is skipped with a warning). Both formats are read by NumPy, through strictio.
+- ``PATH.pcd`` / ``PATH.ply``: one file; ``FOLDER``: every .pcd/.ply in it, in natural name order (one that
+  cannot be read is skipped with a warning; ``objrec_core.folder_source``). Both formats are read by NumPy,
+  through strictio (``pcd.py``, ``ply.py``).
 - ``rgbd:COLOR,DEPTH[,INTRINSICS.json]`` (or ``rgbd:color=…,depth=…,intrinsics=…``): a colour and a depth
   image (16-bit millimetres, or set ``depth_scale`` in the JSON) back-projected into an organized cloud. The
   JSON is Open3D's ``PinholeCameraIntrinsic`` format (``width``, ``height``, column-major
@@ -14,24 +15,21 @@
 from __future__ import annotations
 
 import json
-import logging
-import time
 from collections.abc import Iterator
-from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from objrec_core import Frame, FrameSource, Int, SourceError, SourceSpec, Str
-from strictio import CLOUD_POINTS, InputError, read_bytes, read_text
+from objrec_core.demo_source import DemoSceneSource
+from objrec_core.folder_source import FolderFilesSource
+from strictio import read_text
 from strictio.image_size import check_image_pixels
-from strictio.limits import check
 
 from .cloud import PointCloud
-from .pcd import MAX_HEADER_BYTES, MAX_PCD_BYTES, CloudFileError, ascii_rows, line_end, read_pcd, shown
-
-log = logging.getLogger(__name__)
+from .pcd import CloudFileError, read_pcd
+from .ply import read_ply
 
 CLOUD_SUFFIXES = (".pcd", ".ply")
 #: An intrinsics JSON is a few hundred bytes.
@@ -49,131 +47,13 @@ def read_cloud(path: str | Path) -> PointCloud:
     raise CloudFileError(path, f"unknown point-cloud format {suffix or '(no suffix)'} (.pcd or .ply)")
 
 
-#: PLY property types as NumPy types (byte order added by the format).
-_PLY_TYPES = {"char": "i1", "int8": "i1", "uchar": "u1", "uint8": "u1", "short": "i2", "int16": "i2",
-              "ushort": "u2", "uint16": "u2", "int": "i4", "int32": "i4", "uint": "u4", "uint32": "u4",
-              "float": "f4", "float32": "f4", "double": "f8", "float64": "f8"}
-_PLY_FORMATS = {"ascii": "", "binary_little_endian": "<", "binary_big_endian": ">"}
-
-
-@dataclass
-class _PlyElement:
-    """One element of a PLY header: its name, how many it claims, and its properties (name, NumPy type;
-    type None for a list property)."""
-
-    name: str
-    count: int
-    properties: list[tuple[str, str | None]] = field(default_factory=list)
-
-
-def read_ply(path: str | Path) -> PointCloud:
-    """Read the vertices of a PLY file (ascii or binary): x, y, z and, when present, red, green, blue.
-
-    Read by NumPy through strictio, after the header is checked: the vertex count against the cloud-points
-    limit, the body's length against it, every ascii line as numbers (a bad one is named by its number)."""
-    path = Path(path)
-    try:
-        raw = read_bytes(path, MAX_PCD_BYTES)
-    except InputError as exc:
-        raise CloudFileError(path, exc.message) from None
-    fmt, elements, body_start = _ply_header(path, raw)
-    vertex = next((e for e in elements if e.name == "vertex"), None)
-    if vertex is None or vertex.count == 0:
-        return PointCloud.empty()  # a valid file without points: an empty cloud, an empty detection
-    for axis in "xyz":
-        if axis not in dict(vertex.properties):
-            raise CloudFileError(path, f"corrupt PLY header: element vertex has no property {axis}")
-    before = elements[: elements.index(vertex)]
-    lists = [e.name for e in [*before, vertex] if any(kind is None for _, kind in e.properties)]
-    if lists and (fmt != "ascii" or vertex.name in lists):
-        raise CloudFileError(path, f"element {shown(lists[0])} has list properties where vertices are read "
-                                   "(not supported there)")
-    names = [name for name, _ in vertex.properties]
-    body = memoryview(raw)[body_start:]
-    if fmt == "ascii":
-        skip = line_end(body, sum(e.count for e in before))
-        first_line = raw.count(b"\n", 0, body_start) + bytes(body[:skip]).count(b"\n")
-        values, rest = ascii_rows(path, body[skip:], len(names), vertex.count, first_line)
-        if vertex is elements[-1] and bytes(rest).strip():
-            raise CloudFileError(path, f"corrupt: more lines than the {vertex.count} vertices the header declares")
-        columns = {name: values[:, i] for i, name in enumerate(names)}
-    else:
-        order = _PLY_FORMATS[fmt]
-        skip = sum(e.count * np.dtype([(n, order + str(k)) for n, k in e.properties]).itemsize for e in before)
-        layout = np.dtype([(name, order + str(kind)) for name, kind in vertex.properties])
-        need = skip + vertex.count * layout.itemsize
-        if len(body) < need:
-            raise CloudFileError(path, f"truncated: {len(body)} bytes of element data, {vertex.count} vertices "
-                                       f"need {need}")
-        table = np.frombuffer(body, dtype=layout, count=vertex.count, offset=skip)
-        columns = {name: table[name] for name in names}
-    with np.errstate(over="ignore"):  # 1e300 in a double: inf, an invalid point like NaN
-        points = np.stack([columns[axis].astype(np.float32) for axis in "xyz"], axis=1)
-    colors = None
-    channels = ("red", "green", "blue")
-    if all(c in columns for c in channels):
-        rgb = np.stack([columns[c] for c in channels], axis=1).astype(np.float64)
-        kinds = dict(vertex.properties)
-        if any(str(kinds[c]).startswith("f") for c in channels):
-            rgb *= 255.0  # float colours run from 0 to 1
-        colors = np.clip(np.nan_to_num(rgb) + 0.5, 0, 255).astype(np.uint8)
-    return PointCloud(points, colors)
-
-
-def _ply_header(path: Path, raw: bytes) -> tuple[str, list[_PlyElement], int]:
-    """The format, the elements and where the body starts; the vertex count checked against the limit."""
-    if raw[:16].split(b"\n", 1)[0].strip() != b"ply":
-        raise CloudFileError(path, "not a PLY file (it does not start with 'ply')")
-    fmt, elements = "", []
-    offset, number = 0, 0
-    while True:
-        end = raw.find(b"\n", offset, MAX_HEADER_BYTES)
-        if end < 0:
-            raise CloudFileError(path, f"corrupt PLY header: no end_header in its first {MAX_HEADER_BYTES:,} bytes"
-                                 if len(raw) > MAX_HEADER_BYTES else "corrupt PLY header: no end_header")
-        line = raw[offset:end].decode("ascii", "replace").strip()
-        offset, number = end + 1, number + 1
-        parts = line.split()
-        if line == "end_header":
-            break
-        if number == 1 or not parts or parts[0] in ("comment", "obj_info"):
-            continue
-        where = f"corrupt PLY header: line {number}"
-        if parts[0] == "format" and len(parts) == 3:
-            fmt = parts[1]
-            if fmt not in _PLY_FORMATS:
-                raise CloudFileError(path, f"{where}: unknown format '{shown(fmt)}' (ascii, binary_little_endian "
-                                           "or binary_big_endian)")
-        elif parts[0] == "element" and len(parts) == 3:
-            count = parts[2]
-            if not count.isdigit() or len(count) > 20:
-                raise CloudFileError(path, f"{where}: element {shown(parts[1])} count '{shown(count, 24)}' is not "
-                                           "a whole number")
-            elements.append(_PlyElement(parts[1], int(count)))
-            if parts[1] == "vertex":
-                check(path, CLOUD_POINTS, int(count), "element vertex", "header")  # before anything is allocated
-        elif parts[0] == "property" and elements and len(parts) in (3, 5) and (len(parts) == 5) == (parts[1] == "list"):
-            name, kind = parts[-1], None if len(parts) == 5 else _PLY_TYPES.get(parts[1])
-            if kind is None and len(parts) == 3:
-                raise CloudFileError(path, f"{where}: property {shown(name)} has unknown type '{shown(parts[1])}'")
-            if name in dict(elements[-1].properties):
-                raise CloudFileError(path, f"{where}: property {shown(name)} occurs twice in element "
-                                           f"{shown(elements[-1].name)}")
-            elements[-1].properties.append((name, kind))
-        else:
-            raise CloudFileError(path, f"{where}: '{shown(line)}' is not a PLY header line")
-    if not fmt:
-        raise CloudFileError(path, "corrupt PLY header: no format line")
-    return fmt, elements, offset
-
-
 def _quiet(o3d: Any) -> Any:
     """Open3D's own messages off (errors only) for the duration of a call."""
     return o3d.utility.VerbosityContextManager(o3d.utility.VerbosityLevel.Error)
 
 
-class FileSource(FrameSource):
-    """One cloud file, or every cloud file of a folder in name order.
+class FileSource(FolderFilesSource):
+    """One cloud file, or every cloud file of a folder in natural name order.
 
     In a folder, a file that cannot be read is reported (one warning naming it and why) and skipped, as a
     folder of images does; only when none of them could be read is that an error. One file given alone that
@@ -181,111 +61,21 @@ class FileSource(FrameSource):
 
     kind = "3d"
     extensions = CLOUD_SUFFIXES
-    folders = True
+    what = "point-cloud files"
     summary = "a .pcd or .ply file, or a folder of them"
-
-    @classmethod
-    def from_spec(cls, spec: SourceSpec, options: dict[str, Any]) -> FileSource:
-        return cls(spec.text)
-
-    def __init__(self, spec: str) -> None:
-        self.name = spec
-        path = Path(spec)
-        self.folder = path.is_dir()
-        if self.folder:
-            try:
-                entries = list(path.iterdir())
-            except OSError as exc:
-                raise SourceError(f"{spec}: cannot list the folder: {exc.strerror or exc}") from None
-            self.paths = sorted(p for p in entries if p.suffix.lower() in CLOUD_SUFFIXES)
-            if not self.paths:
-                raise SourceError(f"{spec}: the folder holds no .pcd or .ply files")
-        elif path.exists():  # a FIFO or a device is refused by the reader, which says what it is
-            if path.suffix.lower() not in CLOUD_SUFFIXES:
-                raise SourceError(f"{spec}: not a point-cloud file (.pcd or .ply)")
-            self.paths = [path]
-        else:
-            raise SourceError(f"{spec}: no such file or folder")
-        #: The files of a folder that could not be read, in the order they were met.
-        self.skipped: list[Path] = []
-
-    @property
-    def length(self) -> int:
-        return len(self.paths)
-
-    @property
-    def seekable(self) -> bool:
-        return True
-
-    def __iter__(self) -> Iterator[Frame]:
-        return self.frames_from(0)
-
-    def frames_from(self, index: int) -> Iterator[Frame]:
-        """From the ``index``-th file on; each frame's ``source`` is its file, so a viewer can name it."""
-        start = max(0, index)
-        for number, path in enumerate(self.paths[start:], start):
-            if not self.folder:
-                yield Frame(read_cloud(path), stamp=_stamp(path), index=number, source=str(path))
-                continue
-            try:
-                cloud = read_cloud(path)
-            except InputError as exc:  # CloudFileError and a limit's LimitError alike
-                log.warning("%s, skipped", exc)
-                if path not in self.skipped:
-                    self.skipped.append(path)
-                continue
-            yield Frame(cloud, stamp=_stamp(path), index=number, source=str(path))
-        if self.folder and len(self.skipped) == len(self.paths):
-            raise SourceError(f"{self.name}: none of its {len(self.paths)} point-cloud files could be read")
+    read_file = staticmethod(read_cloud)
 
 
-def _stamp(path: Path) -> float:
-    """When the file was written (0 when it went away meanwhile)."""
-    try:
-        return path.stat().st_mtime
-    except OSError:
-        return 0.0
-
-
-class DemoSource(FrameSource):
+class DemoSource(DemoSceneSource):
     """The synthetic scene, endless unless ``frames`` is given (the sphere rolls; new noise each frame)."""
 
     kind = "3d"
-    schemes = ("demo",)
-    options = {  # noqa: RUF012 - declarations, never mutated
-        "seed": Int(0, "random seed of the scene's layout and noise", min=0, max=2**31 - 1),
-        "frames": Int(0, "how many frames (0: endless)", min=0),
-    }
-    positional = ("seed",)
     summary = "demo[:seed=N,frames=N], a table with a cylinder, a sphere and clutter, with ground truth"
-    FPS = 30.0
 
-    @classmethod
-    def from_spec(cls, spec: SourceSpec, options: dict[str, Any]) -> DemoSource:
-        return cls(spec.text, options["seed"], options["frames"] or None)
-
-    def __init__(self, spec: str = "demo", seed: int = 0, frames: int | None = None) -> None:
-        self.name = spec
-        self.seed = seed
-        self.frames = frames
-
-    @property
-    def length(self) -> int | None:
-        return self.frames
-
-    @property
-    def rate(self) -> float:
-        return self.FPS
-
-    def __iter__(self) -> Iterator[Frame]:
+    def render(self, index: int) -> tuple[PointCloud, Any]:
         from .demo import demo_scene
 
-        start = time.time()
-        index = 0
-        while self.frames is None or index < self.frames:
-            cloud, truth = demo_scene(self.seed, index)
-            yield Frame(cloud, stamp=start + index / self.FPS, index=index, source=self.name, truth=truth)
-            index += 1
+        return demo_scene(self.seed, index)
 
 
 class RGBDSource(FrameSource):

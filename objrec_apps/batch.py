@@ -24,13 +24,11 @@ import os
 import signal
 import sys
 import tempfile
-import threading
 import time
 import uuid
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from types import FrameType
 from typing import IO, Any
 
 from objrec_core import (
@@ -42,13 +40,15 @@ from objrec_core import (
     UnknownModuleError,
     build_system,
     get_kind,
-    source_types,
+    source_schemes,
 )
 from strictio import InputError, OutputError, write_atomically
 from strictio.cli_numbers import CommandLineParser, Number, check_limit_settings
+from strictio.shown import printable
+from strictio.signals import handling, raise_interrupt
 
 from .batch_worker import CANCELLED, FAILED, FORMATS, STOPPED, SourceResult, one_line, output_names, run_source
-from .cli import MAX_FRAMES, USER_ERROR, UserError, configure_logging, report
+from .cli import MAX_FRAMES, MESSAGE_LIMIT, USER_ERROR, UserError, configure_logging, report
 from .outputs import check_topic, default_topic, require_rosbags
 
 log = logging.getLogger("objrec.batch")
@@ -196,7 +196,7 @@ def make_plan(params: str, specs: Sequence[str], out: str, fmt: str = "jsonl", m
     elif topic:
         raise UserError("--output-topic is for --format mcap (JSON Lines have no topics)")
     try:
-        schemes = {s for t in source_types() for s in t.schemes}
+        schemes = source_schemes()
         worker_specs = [_absolute_spec(s, schemes) for s in specs]
         outputs = output_names(specs, FORMATS[fmt], schemes)
     except SourceError as exc:
@@ -239,19 +239,11 @@ def _size(spec: str) -> int:
     return 0
 
 
-@contextlib.contextmanager
-def _workers_ignore_ctrl_c() -> Iterator[None]:
+def _workers_ignore_ctrl_c() -> contextlib.AbstractContextManager[None]:
     """Start worker processes with SIGINT ignored (a disposition they inherit): Ctrl-C in a terminal reaches
     the whole process group, and only this process should act on it, by cancelling and closing the cluster,
     instead of every worker dying with its own traceback."""
-    if threading.current_thread() is not threading.main_thread():
-        yield
-        return
-    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
-    try:
-        yield
-    finally:
-        signal.signal(signal.SIGINT, previous)
+    return handling(signal.SIG_IGN, (signal.SIGINT,))
 
 
 def _quiet_worker_shutdown() -> None:
@@ -328,7 +320,8 @@ class _Bar:
     def done(self, result: SourceResult) -> None:
         if result.status.startswith(FAILED):
             named = result.source in result.status or Path(result.source).name in result.status
-            self._bar.write(f"{PROG}: {'' if named else result.source + ': '}{result.status}", file=sys.stderr)
+            shown = printable(f"{'' if named else result.source + ': '}{result.status}", limit=MESSAGE_LIMIT)
+            self._bar.write(f"{PROG}: {shown}", file=sys.stderr)
         self._bar.update(1)
 
     def write(self, message: str) -> None:
@@ -460,28 +453,16 @@ def totals_line(outcome: BatchOutcome) -> str:
 
 
 # -- the command ----------------------------------------------------------------------------------------------
-class _Interrupt:
-    """SIGTERM as Ctrl-C: the batch cancels what is left and still writes the summary."""
-
-    def __call__(self, signum: int, _frame: FrameType | None) -> None:
-        raise KeyboardInterrupt
-
-
 def run(args: argparse.Namespace, stdout: IO[str]) -> int:
     plan = make_plan(args.params, args.sources, args.out, args.format, args.max_frames, args.output_topic,
                      args.frame_id)
-    previous = None
-    if threading.current_thread() is threading.main_thread():
-        previous = signal.signal(signal.SIGTERM, _Interrupt())
     try:
-        outcome = run_batch(plan, args.workers, args.scheduler, args.progress)
+        with handling(raise_interrupt, (signal.SIGTERM,)):  # SIGTERM as Ctrl-C: cancel what is left, still summarize
+            outcome = run_batch(plan, args.workers, args.scheduler, args.progress)
     except KeyboardInterrupt:  # while the cluster was starting: nothing ran
         outcome = BatchOutcome([SourceResult(s, n, status=CANCELLED) for s, n in zip(plan.specs, plan.outputs,
                                                                                         strict=True)],
                                interrupted=True)
-    finally:
-        if previous is not None:
-            signal.signal(signal.SIGTERM, previous)
     code = EXIT_INTERRUPTED if outcome.interrupted else EXIT_FAILED if outcome.failed else EXIT_OK
     try:
         write_atomically(plan.out_dir / SUMMARY, summary_csv(outcome.results))

@@ -11,8 +11,9 @@ from __future__ import annotations
 import logging
 import os
 import re
+import sys
 import time
-from collections.abc import Callable, Iterable
+from collections.abc import Iterable
 from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
@@ -20,13 +21,15 @@ from typing import Any
 from objrec_core import (
     DetectedObjectArray,
     DetectionDirector,
-    JSONLinesSink,
     RunStats,
     SourceSpec,
     build_system,
     open_source,
-    source_types,
+    source_schemes,
 )
+
+from .cli import EscapingFormatter
+from .output_contract import Ending, Output, RunEnd
 
 log = logging.getLogger("objrec.batch")
 
@@ -87,7 +90,7 @@ def output_stem(spec: str, schemes: set[str] | None = None) -> str:
     """The file name an output takes from its source: a path's stem (a folder's name), else the path inside a
     ``scheme:`` spec, else the spec itself made safe for a file name. ``schemes``: the registered ones."""
     if schemes is None:
-        schemes = {s for t in source_types() for s in t.schemes}
+        schemes = source_schemes()
     parsed = SourceSpec.parse(spec, schemes)
     if parsed.path is not None:
         path = parsed.path
@@ -107,7 +110,7 @@ def output_names(specs: Iterable[str], suffix: str, schemes: set[str] | None = N
     """One file name per source, in order, unique even where stems clash (``clip``, ``clip-2``, ...) and on
     file systems that ignore case."""
     if schemes is None:
-        schemes = {s for t in source_types() for s in t.schemes}
+        schemes = source_schemes()
     used: set[str] = set()
     names = []
     for spec in specs:
@@ -124,7 +127,9 @@ def output_names(specs: Iterable[str], suffix: str, schemes: set[str] | None = N
 def _worker_logging() -> None:
     """A worker process has no handler of its own for objrec's warnings (a skipped image, a dropped message):
     give them the command's prefix on the worker's stderr. Does nothing where logging is set up already."""
-    logging.basicConfig(level=logging.WARNING, format="objrec-batch (worker): %(levelname)s: %(message)s")
+    handler = logging.StreamHandler(sys.stderr)
+    handler.setFormatter(EscapingFormatter("objrec-batch (worker): %(levelname)s: %(message)s"))
+    logging.basicConfig(level=logging.WARNING, handlers=[handler])
 
 
 class _StopFlag:
@@ -151,19 +156,16 @@ class _StopFlag:
 
 # -- one source ------------------------------------------------------------------------------------------------
 def _open_output(path: Path, fmt: str, array_type: type[DetectedObjectArray], topic: str | None,
-                 object_name: str) -> tuple[Callable[[DetectedObjectArray], None], Callable[[], None]]:
-    """The sink writing one source's detections, and how to finish it. An MCAP file is finished (not
-    aborted) after a failure too, like a JSON Lines file: it holds the frames done before the break."""
+                 object_name: str) -> Output:
+    """The output of one source's detections, the same as objrec-detect's ``--output`` (imported here, when a
+    worker runs a source, so that importing this module stays light)."""
+    from .detection_outputs import DetectionLines, TypedDetections
+    from .outputs import default_topic
+
     if fmt == "jsonl":
-        sink = JSONLinesSink(path)
-        return sink, sink.close
+        return DetectionLines(path)
     if fmt == "mcap":
-        from objrec_ros.output import open_detection_writer
-
-        from .outputs import default_topic
-
-        writer = open_detection_writer(path, array_type, topic or default_topic(object_name))
-        return writer, writer.close
+        return TypedDetections(path, array_type, topic or default_topic(object_name))
     raise ValueError(f"unknown output format {fmt!r} (formats: {', '.join(FORMATS)})")
 
 
@@ -196,17 +198,21 @@ def run_source(
         return result
     try:
         system = build_system(params)
-        close_output = None
+        detections: Output | None = None
+        end = RunEnd(Ending.FAILED)  # an output keeps the frames done before a break, an MCAP file is completed
         try:
-            sink, close_output = _open_output(Path(output), fmt, system.object_array_type, topic, system.object_name)
-            director = DetectionDirector(system, sinks=[sink], frame_id=frame_id)
+            detections = _open_output(Path(output), fmt, system.object_array_type, topic, system.object_name)
+            director = DetectionDirector(system, frame_id=frame_id)
+            detections.attach(director)
             with open_source(spec, system.kind) as source:
                 director.run_all(source, max_frames, stop=stop)  # type: ignore[arg-type] - has is_set()
+            end = RunEnd(Ending.COMPLETED)
             if director.stats.stopped_by == "stop":
                 result.status = STOPPED
+                end = RunEnd(Ending.INTERRUPTED)
         finally:
-            if close_output is not None:
-                close_output()
+            if detections is not None:
+                detections.close(end)
     except Exception as exc:  # see the docstring: one source's failure of any kind is a row, not a crash
         log.debug("%s failed", spec, exc_info=True)
         result.status = f"{FAILED}: {one_line(exc)}"

@@ -8,7 +8,8 @@ from typing import IO
 
 from strictio import OutputError
 from strictio.atomic import LineOutput
-from strictio.cli_numbers import Number, printable
+from strictio.cli_numbers import Number
+from strictio.shown import escape_controls, printable
 
 #: Exit code for a mistake in what the user asked for (a bad file, source or option).
 USER_ERROR = 2
@@ -22,18 +23,27 @@ class UserError(Exception):
     """A mistake in what the user asked for: reported in one line on stderr, exit code 2, no traceback."""
 
 
+class EscapingFormatter(logging.Formatter):
+    """Log lines whose message is shown escaped (strictio.shown): a warning naming a file or a source the
+    user gave can neither split its line nor reorder the terminal's text. A traceback, when logged, keeps its
+    lines."""
+
+    def formatMessage(self, record: logging.LogRecord) -> str:  # noqa: N802 - logging's own name
+        record.message = escape_controls(record.message)
+        return super().formatMessage(record)
+
+
 def configure_logging(prog: str, verbose: bool) -> None:
-    """Diagnostics to stderr, prefixed with the command's name; stdout stays for results."""
-    logging.basicConfig(
-        level=logging.INFO if verbose else logging.WARNING,
-        format=f"{prog}: %(levelname)s: %(message)s",
-        stream=sys.stderr,
-    )
+    """Diagnostics to stderr, prefixed with the command's name, escaped; stdout stays for results."""
+    handler = logging.StreamHandler(sys.stderr)
+    handler.setFormatter(EscapingFormatter(f"{prog}: %(levelname)s: %(message)s"))
+    logging.basicConfig(level=logging.INFO if verbose else logging.WARNING, handlers=[handler])
 
 
 def report(prog: str, message: object) -> None:
-    """One error line on stderr: control characters in it (a name from a file, a value typed) are shown
-    escaped, so that nothing can split the line or fake output."""
+    """One error line on stderr: control characters and bidirectional overrides in it (a name from a file, a
+    source typed) are shown escaped (strictio.shown, the one place that decides), so that nothing can split
+    the line, fake output or reorder what the terminal shows. Every error of a command is printed here."""
     sys.stderr.write(f"{prog}: error: {printable(message, limit=MESSAGE_LIMIT)}\n")
 
 

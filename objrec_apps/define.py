@@ -29,6 +29,7 @@ from objrec_core import (
 )
 from strictio import InputError, OutputError
 from strictio.cli_numbers import CommandLineParser, check_limit_settings
+from strictio.signals import handling
 
 from .cli import USER_ERROR, UserError, configure_logging, report
 from .launch import ending_at_once
@@ -169,17 +170,16 @@ def run(args: argparse.Namespace) -> int:
     window.show()
     # Ctrl-C in the terminal closes the window as File>Quit would (settings saved, thread stopped). Qt's loop
     # runs no Python between events, so a timer lets the interpreter look at its signals now and then.
-    previous = signal.signal(signal.SIGINT, lambda _signum, _frame: window.close())
     from PySide6.QtCore import QTimer
 
     ticker = QTimer()
     ticker.timeout.connect(lambda: None)
     ticker.start(250)
     try:
-        return int(application.exec())
+        with handling(lambda _signum, _frame: window.close(), (signal.SIGINT,)):
+            return int(application.exec())
     finally:
         ticker.stop()
-        signal.signal(signal.SIGINT, previous)
 
 
 def main(argv: list[str] | None = None) -> int:

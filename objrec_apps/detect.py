@@ -16,36 +16,35 @@ import logging
 import os
 import signal
 import sys
-import threading
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from functools import partial
 from pathlib import Path
-from types import FrameType
 from typing import IO, Any
 
 from objrec_core import (
-    DetectedObjectArray,
     DetectionDirector,
-    Frame,
     FrameSource,
-    JSONLinesSink,
     Kind,
     ParameterFileError,
     PipelineError,
     SourceError,
-    Stage,
     UnknownModuleError,
     build_system,
     get_kind,
     open_source,
 )
-from rerunio import RerunUnavailable
 from strictio import InputError, OutputError
 from strictio.cli_numbers import CommandLineParser, check_limit_settings
+from strictio.shown import printable
+from strictio.signals import StopSignals
 
 from . import explain, outputs
-from .annotation_writer import AnnotationError, AnnotationWriter
-from .cli import MAX_FRAMES, USER_ERROR, UserError, configure_logging, open_text_output, report
-from .rerun_log import open_rerun
+from .annotation_writer import AnnotationError
+from .cli import MAX_FRAMES, MESSAGE_LIMIT, USER_ERROR, UserError, configure_logging, report
+from .detection_outputs import OUTPUT_OPTION, DetectionLines, TypedDetections
+from .output_contract import Ending, Output, RunEnd, close_outputs
+from .side_outputs import Pictures, Reasons, RerunRecording
 
 log = logging.getLogger("objrec.detect")
 PROG = "objrec-detect"
@@ -103,20 +102,6 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
-class _Stopper:
-    """Turns SIGTERM and Ctrl-C into a stop request, so the loop ends between frames and flushes."""
-
-    def __init__(self) -> None:
-        self.event = threading.Event()
-        self.reason = ""
-
-    def __call__(self, signum: int, _frame: FrameType | None) -> None:
-        if signum == signal.SIGINT and self.event.is_set():
-            raise KeyboardInterrupt  # a second Ctrl-C: the source itself may be stuck
-        self.reason = signal.Signals(signum).name
-        self.event.set()
-
-
 class BarProgress:
     """The run loop's progress as a tqdm bar on stderr (only where the total is known)."""
 
@@ -139,21 +124,6 @@ class BarProgress:
         if self._bar is not None:
             self._bar.close()
             self._bar = None
-
-
-class PictureSink:
-    """Writes each frame's picture: the kind's annotation, or with ``debug`` the first detector's own view."""
-
-    def __init__(self, writer: AnnotationWriter, kind: Kind, debug: bool) -> None:
-        self.writer, self.kind, self.debug = writer, kind, debug
-
-    def __call__(self, frame: Frame, objects: DetectedObjectArray, stages: Sequence[Stage] | None) -> None:
-        picture = None
-        if self.debug and stages:
-            picture = next((s.debug for s in stages if s.debug is not None), None)
-            if isinstance(picture, dict):
-                picture = next(iter(picture.values()), None)
-        self.writer.write(picture if picture is not None else self.kind.annotate(frame, objects))
 
 
 def _open(args: argparse.Namespace) -> tuple[DetectionDirector, FrameSource, Kind]:
@@ -189,24 +159,6 @@ def _check_output_options(args: argparse.Namespace) -> None:
             raise UserError(f"{option} needs a typed --output (FILE.mcap, FILE.bag or a ROS 2 bag folder)")
 
 
-def _typed_writer(args: argparse.Namespace, director: DetectionDirector, source: FrameSource) -> Any:
-    """The typed-message writer ``--output`` asks for, or None for JSON Lines."""
-    if not (args.output and outputs.is_typed_output(args.output)):
-        return None
-    system = director.system
-    topic = args.output_topic or outputs.default_topic(system.object_name)
-    copy = outputs.input_copy(source) if args.copy_input else None
-    return outputs.open_typed_writer(args.output, system.object_array_type, topic, copy)
-
-
-def _skipping_empty(sink: Any) -> Any:
-    def write(array: DetectedObjectArray) -> None:
-        if array.objects:
-            sink(array)
-
-    return write
-
-
 def _list_topics(args: argparse.Namespace, stdout: IO[str]) -> int:
     outputs.require_rosbags("--list-topics")
     from objrec_ros.bags import list_topics
@@ -228,155 +180,115 @@ def _check_explain(args: argparse.Namespace) -> None:
         raise UserError(f"--explain={args.explain}: the same file as --output; give the reasons a file of their own")
 
 
+@dataclass(frozen=True)
+class RunInputs:
+    """What the outputs are opened from: the options, the director they attach to, the source, the kind."""
+
+    args: argparse.Namespace
+    director: DetectionDirector
+    source: FrameSource
+    kind: Kind
+    stdout: IO[str]
+
+
+def _reasons(run: RunInputs) -> Output | None:
+    return Reasons(run.args.explain) if run.args.explain is not None else None
+
+
+def _recording(run: RunInputs) -> Output | None:
+    return RerunRecording(run.args.rerun, run.kind, run.director.system) if run.args.rerun else None
+
+
+def _detections(run: RunInputs) -> Output:
+    """Typed messages where ``--output`` names a bag or MCAP file, else JSON Lines (stdout without it)."""
+    args = run.args
+    if not (args.output and outputs.is_typed_output(args.output)):
+        return DetectionLines(args.output, run.stdout, skip_empty=args.skip_empty)
+    system = run.director.system
+    topic = args.output_topic or outputs.default_topic(system.object_name)
+    copy = outputs.input_copy(run.source) if args.copy_input else None
+    return TypedDetections(args.output, system.object_array_type, topic, copy, skip_empty=args.skip_empty)
+
+
+def _pictures(run: RunInputs) -> Output | None:
+    if not run.args.annotate:
+        return None
+    return Pictures(run.args.annotate, run.kind, debug=run.args.annotate_view == "debug")
+
+
+#: objrec-detect's outputs by the option that asks for each, in the order they are opened (and closed the
+#: other way round); an entry gives None where its option is not given.
+OUTPUTS: dict[str, Callable[[RunInputs], Output | None]] = {
+    explain.OPTION: _reasons,
+    "--rerun": _recording,
+    OUTPUT_OPTION: _detections,
+    "--annotate": _pictures,
+}
+#: What ends a run early with one line (anything else is a user mistake found late, or a bug).
+_RUN_FAILURES = (SourceError, InputError, OutputError, AnnotationError, explain.ExplainWriteError, OSError)
+
+
 def run(args: argparse.Namespace, stdout: IO[str]) -> int:
     if args.list_topics:
         return _list_topics(args, stdout)
     _check_output_options(args)
     _check_explain(args)
     director, source, kind = _open(args)
-    stopper = _Stopper()
-    previous = {}
-    if threading.current_thread() is threading.main_thread():
-        previous = {sig: signal.signal(sig, stopper) for sig in (signal.SIGTERM, signal.SIGINT)}
-    writer = None
-    output = None
-    typed = None
-    recorder = None
-    reasons = None
-    status = 0
-    keep_typed = True  # a typed output is completed with what it got, unless it failed itself or got nothing
-    try:
-        if args.explain is not None:
-            reasons = explain.Explainer(args.explain)
-            director.add_outcome_sink(reasons.sink)
-        if args.rerun:
-            try:
-                recorder = open_rerun(args.rerun, kind, director.system)
-            except RerunUnavailable as exc:
-                raise UserError(str(exc)) from None
-            director.keep_stages = True
-            director.add_annotation_sink(recorder)
-        typed = _typed_writer(args, director, source)
-        if typed is not None:
-            director.add_sink(_skipping_empty(typed) if args.skip_empty else typed)
-        else:
-            output = open_text_output(args.output) if args.output else None
-            director.add_sink(JSONLinesSink(output or stdout, skip_empty=args.skip_empty))
-        if args.annotate:
-            try:
-                writer = AnnotationWriter(args.annotate)
-            except AnnotationError as exc:
-                raise UserError(str(exc)) from None
-            debug = args.annotate_view == "debug"
-            director.keep_stages = director.keep_stages or debug
-            director.add_annotation_sink(PictureSink(writer, kind, debug=debug))
-        bar = args.progress if reasons is None or not reasons.to_stderr else bool(args.progress)  # no bar amid them
-        director.run_all(source, args.max_frames, stop=stopper.event, progress=BarProgress(bar))
-        if director.stats.stopped_by == "stop":
-            log.warning("stopped by %s after %d frames", stopper.reason, director.stats.frames)
-    except KeyboardInterrupt:
-        log.warning("interrupted after %d frames", director.stats.frames)
-    except BrokenPipeError:
-        raise
-    except SourceError as exc:
-        report(PROG, exc)
-        status = 2 if director.stats.frames == 0 else 1  # nothing read at all: the source itself is bad
-        keep_typed = status != 2
-    except AnnotationError as exc:  # the pictures cannot be written: the other outputs keep what they got
-        report(PROG, exc)
-        status = 2
-    except InputError as exc:  # an input refused mid-run (a frame over a limit): what was written is kept
-        report(PROG, exc)
-        status = 2
-        keep_typed = director.stats.frames > 0
-    except OutputError as exc:  # an output that cannot be written; a typed one is then left out entirely
-        report(PROG, exc)
-        status = 2
-        keep_typed = typed is not None and _other_output(exc.path, args)
-    except explain.ExplainWriteError as exc:
-        report(PROG, exc)
-        status = 2
-    except OSError as exc:  # the output went away: a full disk, a closed device
-        report(PROG, f"writing {args.output or 'the output'}: {exc.strerror or exc}")
-        status = 2
-    except BaseException:  # a user mistake found late or an unexpected error: no half-written typed output
-        if typed is not None:
-            typed.abort()
-        raise
-    finally:
-        status = _close_output(writer, args.annotate, status)
-        status = _close_output(recorder, args.rerun, status)
-        status = _close_output(output, args.output, status)
-        status = _close_reasons(reasons, status)
-        source.close()
-        for sig, handler in previous.items():
-            signal.signal(sig, handler)
-    if typed is not None:
-        status = _finish_typed(typed, keep=keep_typed, status=status)
+    inputs = RunInputs(args, director, source, kind, stdout)
+    opened: list[Output] = []
+    end = RunEnd(Ending.FAILED, keep_partial=False)  # until the run says otherwise: a late mistake or a bug
+    # Ctrl-C and SIGTERM end the loop between frames, everything flushed; a second Ctrl-C breaks a stuck source.
+    with StopSignals(escalate=(signal.SIGINT,)) as stop:
+        try:
+            for open_output in OUTPUTS.values():
+                output = open_output(inputs)
+                if output is not None:
+                    output.attach(director)
+                    opened.append(output)
+            bar = bool(args.progress) if any(o.uses_stderr for o in opened) else args.progress  # no bar amid reasons
+            director.run_all(source, args.max_frames, stop=stop.event, progress=BarProgress(bar))
+            end = RunEnd(Ending.COMPLETED)
+            if director.stats.stopped_by == "stop":
+                log.warning("stopped by %s after %d frames", stop.reason, director.stats.frames)
+                end = RunEnd(Ending.INTERRUPTED)
+        except KeyboardInterrupt:
+            log.warning("interrupted after %d frames", director.stats.frames)
+            end = RunEnd(Ending.INTERRUPTED)
+        except BrokenPipeError:
+            raise
+        except _RUN_FAILURES as exc:
+            end = _failed(exc, director.stats.frames, opened, args)
+        finally:
+            status = close_outputs(opened, end, partial(report, PROG))
+            source.close()
     if status:
         return status
     stats = director.stats
     print(f"{PROG}: {stats.frames} frames, {stats.objects} objects, {stats.seconds:.2f} s, {stats.rate:.1f} frames/s",
           file=sys.stderr)
-    if writer is not None:
-        print(f"{PROG}: {writer.count} annotated frames written to {args.annotate}", file=sys.stderr)
-    if typed is not None:
-        print(f"{PROG}: {typed.count} messages on {typed.topic} written to {args.output}", file=sys.stderr)
+    for output in reversed(opened):
+        line = output.summary()
+        if line:
+            print(f"{PROG}: {printable(line, limit=MESSAGE_LIMIT)}", file=sys.stderr)
     return 0
 
 
-def _close_output(output: Any, path: str | None, status: int) -> int:
-    """Close one output; a failure there (the last buffered bytes, a video's index) is exit code 2, reported
-    unless the run already failed and said so."""
-    if output is None:
-        return status
-    failure: object
-    try:
-        output.close()
-    except (OutputError, AnnotationError) as exc:  # these name their file
-        failure = exc
-    except OSError as exc:
-        failure = f"writing {path}: {exc.strerror or exc}"
-    else:
-        return status
-    if not status:
-        report(PROG, failure)
-    return USER_ERROR
-
-
-def _close_reasons(reasons: explain.Explainer | None, status: int) -> int:
-    """Close the side file of reasons; a failure that was not reported yet is reported now."""
-    if reasons is None:
-        return status
-    try:
-        reasons.close()
-    except explain.ExplainWriteError as exc:
-        if not status:  # else the run already failed, and said so
-            report(PROG, exc)
-            return USER_ERROR
-    return status
-
-
-def _other_output(path: str, args: argparse.Namespace) -> bool:
-    """Whether a failed write at ``path`` was one of the side outputs (pictures, recording), not --output."""
-    failed = Path(path).resolve()
-    sides = [Path(side).resolve() for side in (args.annotate, args.rerun) if side]
-    return any(failed == side or failed.is_relative_to(side) for side in sides)
-
-
-def _finish_typed(typed: Any, keep: bool, status: int) -> int:
-    """Complete a typed output with everything written so far (also after a stop or a source that broke
-    mid-stream), or drop it when the run wrote nothing usable; a failure to complete it is exit code 2."""
-    if not keep:
-        typed.abort()
-        return status
-    try:
-        typed.close()
-    except OutputError as exc:
-        if not status:  # else the run already failed, and said so in its one line
-            report(PROG, exc)
-        return USER_ERROR
-    return status
+def _failed(exc: Exception, frames: int, opened: Sequence[Output], args: argparse.Namespace) -> RunEnd:
+    """Report a run that broke off in one line; how it ended, and whether the outputs keep what they got."""
+    report_as: object = exc
+    keep = True
+    status = USER_ERROR
+    if isinstance(exc, SourceError):  # nothing read at all: the source itself is bad, else it broke mid-stream
+        status = USER_ERROR if frames == 0 else 1
+        keep = frames > 0
+    elif isinstance(exc, InputError):  # an input refused mid-run (a frame over a limit): what was written is kept
+        keep = frames > 0
+    elif isinstance(exc, OutputError):  # a typed output that cannot be written is left out; a side's failure not
+        keep = any(o.holds(exc.path) for o in opened if o.option != OUTPUT_OPTION)
+    elif isinstance(exc, OSError):  # the output went away: a full disk, a closed device
+        report_as = f"writing {args.output or 'the output'}: {exc.strerror or exc}"
+    report(PROG, report_as)
+    return RunEnd(Ending.FAILED, status, keep_partial=keep)
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -15,26 +15,15 @@ import argparse
 import logging
 import sys
 from collections.abc import Sequence
-from dataclasses import replace
 from pathlib import Path
 
-from navigation.cli import (
-    COORDINATE,
-    LAPS,
-    ODOM_NOISE,
-    SEED,
-    TIME_LIMIT,
-    TIME_STEP,
-    YAW,
-    StartupSigint,
-    format_summary,
-)
+from navigation.cli import COORDINATE, LAPS, TIME_LIMIT, YAW, format_summary
 from navigation.diagram import write_diagram
 from navigation.geometry import Pose2D
-from navigation.localization import LOCALIZATION_MODES
-from navigation.simulation import SimConfig
+from navigation.sim_options import add_simulation_options, simulation_config
 from strictio import InputError, OutputError
 from strictio.cli_numbers import CommandLineParser, Number, check_limit_settings, fields
+from strictio.signals import StopSignals
 
 from .cli import USER_ERROR, configure_logging, report
 from .inspection import Inspection, InspectionError, open_inspection
@@ -70,16 +59,7 @@ def build_parser() -> argparse.ArgumentParser:
     change.add_argument("--shift", action=fields(None, SHIFT, SHIFT, append=True), nargs=3, default=[],
                         metavar=("NAME", "DX", "DY"),
                         help="the robot meets this object shifted by DX, DY metres (repeatable)")
-    sim = p.add_argument_group("simulation")
-    sim.add_argument("--seed", type=SEED, default=0,
-                     help=f"random seed for sensor noise (default 0; {SEED.describe()})")
-    sim.add_argument("--odom-noise", type=ODOM_NOISE, default=0.0, metavar="FRACTION",
-                     help=f"relative odometry noise per step, e.g. 0.05 (default 0; {ODOM_NOISE.describe()})")
-    sim.add_argument("--localization", choices=LOCALIZATION_MODES, default="exact",
-                     help="what the robot drives on and places objects with (default exact; amcl with noise)")
-    sim.add_argument("--dt", type=TIME_STEP, default=0.1, metavar="SECONDS",
-                     help=f"time step (default 0.1; {TIME_STEP.describe()})")
-    sim.add_argument("--realtime", action="store_true", help="run at wall-clock speed instead of flat out")
+    add_simulation_options(p)
     p.add_argument("--diagram", metavar="PATH", help="Mermaid diagram of the machine with the mission's states")
     p.add_argument("-v", "--verbose", action="store_true", help="log progress on stderr")
     return p
@@ -91,8 +71,7 @@ def _open(args: argparse.Namespace) -> Inspection:
         out.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
         raise InspectionError(f"{out}: cannot be created: {exc.strerror or exc}") from None
-    config = replace(SimConfig(), dt=args.dt, seed=args.seed, odom_linear_noise=args.odom_noise,
-                     odom_angular_noise=args.odom_noise, localization=args.localization)
+    config = simulation_config(args)
     return open_inspection(args.mission, args.map, args.world, remove=args.remove,
                            shift=[(name, dx, dy) for name, dx, dy in args.shift],
                            config=config, start=Pose2D(*args.start) if args.start else None, laps=args.laps,
@@ -107,7 +86,7 @@ def _verdict_lines(inspection: Inspection) -> list[str]:
     return lines
 
 
-def run(args: argparse.Namespace, early: StartupSigint) -> int:
+def run(args: argparse.Namespace, early: StopSignals) -> int:
     inspection = _open(args)
     sim, machine = inspection.sim, inspection.machine
     out = Path(args.out)
@@ -134,7 +113,7 @@ def run(args: argparse.Namespace, early: StartupSigint) -> int:
 
 def main(argv: Sequence[str] | None = None) -> int:
     try:
-        with StartupSigint() as early:  # from the first moment: a Ctrl-C while parsing counts too
+        with StopSignals() as early:  # from the first moment: a Ctrl-C while parsing counts too
             args = build_parser().parse_args(argv)
             configure_logging(PROG, args.verbose)
             check_limit_settings()

@@ -13,10 +13,11 @@ from __future__ import annotations
 import contextlib
 import os
 import signal
-import threading
 from collections.abc import Callable, Iterator
 from importlib import import_module
 from types import FrameType
+
+from strictio.signals import STOP_SIGNALS, handling
 
 #: Each command's module (its ``main`` is the command).
 COMMANDS = {
@@ -27,7 +28,7 @@ COMMANDS = {
     "objrec-patrol": "navigation.cli",
 }
 #: The signals that end a command while it starts.
-START_SIGNALS = (signal.SIGINT, signal.SIGTERM)
+START_SIGNALS = STOP_SIGNALS
 
 
 def _end_at_once(prog: str) -> Callable[[int, FrameType | None], None]:
@@ -42,15 +43,8 @@ def _end_at_once(prog: str) -> Callable[[int, FrameType | None], None]:
 def ending_at_once(prog: str, signals: tuple[int, ...] = START_SIGNALS) -> Iterator[None]:
     """Within: these signals end the process at once with one line (for a start-up that has nothing to save
     yet); the previous handling is back afterwards. Outside the main thread it changes nothing."""
-    previous = {}
-    if threading.current_thread() is threading.main_thread():
-        handler = _end_at_once(prog)
-        previous = {sig: signal.signal(sig, handler) for sig in signals}
-    try:
+    with handling(_end_at_once(prog), signals):
         yield
-    finally:
-        for sig, old in previous.items():
-            signal.signal(sig, old)
 
 
 def launch(prog: str) -> int:

@@ -27,8 +27,7 @@ from typing import Any
 import numpy as np
 
 from objrec_core import DetectedObjectArray, Frame, FrameKindError, Kind, RecognitionSystem, Stage
-from rerunio import VIEWER_PORT, import_rerun, open_stream
-from strictio import OutputError
+from rerunio import VIEWER_PORT, Recorder, import_rerun, open_stream
 
 log = logging.getLogger(__name__)
 
@@ -94,11 +93,7 @@ def detection_blueprint(kind: Kind, stage_ids: Sequence[str]) -> Any:
     return rrb.Blueprint(rrb.Vertical(rrb.Grid(*views), plots, row_shares=[4, 1]))
 
 
-#: Frames between two checks that the recording is still being written.
-CHECK_EVERY = 50
-
-
-class RerunRecorder:
+class RerunRecorder(Recorder):
     """An annotation sink (``recorder(frame, objects, stages)``) that logs each frame to a recording.
 
     Give the director ``keep_stages=True`` for the filter outputs; without stages only the input, the
@@ -107,30 +102,23 @@ class RerunRecorder:
     ``stats/frame_seconds`` is the wall time the run loop spent on a frame outside this recorder: from
     the end of the previous call (for the first frame, from the recorder's creation) to the start of this
     one, which covers reading the frame, the pipeline and the other sinks, and leaves out the recorder's
-    own logging. ``stats/objects`` is the number of objects found in the frame.
+    own logging. ``stats/objects`` is the number of objects found in the frame. A failed write is noticed
+    every ``rerunio.CHECK_EVERY`` frames (``rerunio.Recorder``).
     """
 
-    #: Where the recording goes, as the user named it (for error messages).
-    target = "the Rerun recording"
-
     def __init__(self, recording: Any, kind: Kind) -> None:
-        import rerun as rr
-
-        self._rr = rr
-        self.recording = recording
+        super().__init__(recording)
         self.kind = kind
-        self.frames = 0
-        self._closed = False
         if kind.has_points:
             # A point cloud's sensor frame: x right, y down, z forward. Only the viewer's camera uses it.
-            recording.log("/", rr.ViewCoordinates.RDF, static=True)
+            recording.log("/", self._rr.ViewCoordinates.RDF, static=True)
         self._ready = time.perf_counter()
 
     def __call__(self, frame: Frame, objects: DetectedObjectArray, stages: Sequence[Stage] | None) -> None:
         seconds = time.perf_counter() - self._ready
         rr, rec = self._rr, self.recording
-        rec.set_time("frame", sequence=int(frame.index))
-        rec.set_time("stamp", timestamp=float(objects.header.stamp))
+        self.set_time("frame", sequence=int(frame.index))
+        self.set_time("stamp", timestamp=float(objects.header.stamp))
         self._log_data("input/frame", frame.data)
         for stage in stages or ():
             if stage.role == "filter":
@@ -138,19 +126,13 @@ class RerunRecorder:
         self._log_objects(objects)
         rec.log("stats/frame_seconds", rr.Scalars(seconds))
         rec.log("stats/objects", rr.Scalars(float(len(objects.objects))))
-        self.frames += 1
-        if self.frames % CHECK_EVERY == 0:
-            self._check_writing()
+        self.step_logged()
         self._ready = time.perf_counter()
 
-    def _check_writing(self) -> None:
-        """rerun reports a failed file write (a full disk) only when flushed: flushing now and then ends the
-        run with one line soon after, rather than after every frame was logged into nowhere."""
-        try:
-            self.recording.flush()
-        except Exception as exc:
-            self._closed = True
-            raise OutputError(self.target, f"cannot be written: {exc}") from None
+    @property
+    def frames(self) -> int:
+        """Frames logged so far."""
+        return self.steps
 
     def _log_data(self, path: str, data: Any) -> None:
         rr, kind = self._rr, self.kind
@@ -192,23 +174,6 @@ class RerunRecorder:
                 labels.append(outline.label)
         self.recording.log("input/detections",
                            rr.LineStrips2D(strips, labels=labels, colors=[DETECTION_COLOUR] * len(strips)))
-
-    def close(self) -> None:
-        """Flush everything logged and close the file (its footer written) or the viewer connection."""
-        if self._closed:
-            return
-        self._closed = True
-        try:
-            self.recording.flush()
-            self.recording.disconnect()
-        except Exception as exc:  # rerun reports a full disk or a lost viewer as a RuntimeError
-            raise OutputError(self.target, f"cannot be written: {exc}") from None
-
-    def __enter__(self) -> RerunRecorder:
-        return self
-
-    def __exit__(self, *_exc: object) -> None:
-        self.close()
 
 
 def open_rerun(target: str | os.PathLike[str], kind: Kind, system: RecognitionSystem | None = None, *,

@@ -21,7 +21,7 @@ from .directors import (
 )
 from .kinds import FrameKindError, Kind, Outline
 from .messages import DetectedObjectArray, Header
-from .modules import Detector, Filter, Rect, SelectionRefused
+from .modules import Detections, Detector, Filter, Rect, SelectionRefused, detection_reason
 from .observer import Change, Observer, Subject
 from .parametrizable import Parametrizable
 from .registry import (
@@ -35,12 +35,15 @@ from .registry import (
     register_kind,
     register_module,
     register_source,
+    source_entries,
     source_kinds,
+    source_schemes,
     source_types,
     source_usage,
 )
 from .schema import FORMAT_VERSION, ParameterFileError
 from .sinks import JSONLinesSink
+from .source_declaration import DeclaredSource
 from .sources import Frame, FrameSource, SourceError, SourceSpec
 from .storage import Opened, ParameterStorage, build_system, peek_kind
 from .system import PipelineError, PipelineResult, RecognitionSystem, Stage
@@ -52,9 +55,11 @@ __all__ = [
     "Change",
     "Check",
     "Choice",
+    "DeclaredSource",
     "DefinitionDirector",
     "DetectedObjectArray",
     "DetectionDirector",
+    "Detections",
     "Detector",
     "Filter",
     "Float",
@@ -92,6 +97,7 @@ __all__ = [
     "Subject",
     "UnknownModuleError",
     "build_system",
+    "detection_reason",
     "get_kind",
     "kind_names",
     "module_type",
@@ -102,7 +108,9 @@ __all__ = [
     "register_kind",
     "register_module",
     "register_source",
+    "source_entries",
     "source_kinds",
+    "source_schemes",
     "source_types",
     "source_usage",
 ]

@@ -30,8 +30,8 @@ Sink = Callable[[DetectedObjectArray], None]
 
 @dataclass(frozen=True)
 class DetectorOutcome:
-    """What one detector made of one frame: how many objects it found and, when none, its ``last_reason``
-    (None where the detector gives no reasons)."""
+    """What one detector made of one frame: how many objects it found and, when none, the reason its result
+    carried (None where the detector gives no reasons)."""
 
     detector: str  # the detector's id
     type_name: str
@@ -198,7 +198,8 @@ class DetectionDirector(_Director):
         if not isinstance(frame, Frame):
             frame = Frame(frame, index=self._seq)
         result = self.system.process(frame.data, keep_stages=self.keep_stages)
-        outcomes = [self._outcome(d, n) for d, n in result.found] if self.outcome_sinks else []
+        outcomes = [DetectorOutcome(d.id, d.type_name, n, None if n else result.reasons.get(d.id))
+                    for d, n in result.found] if self.outcome_sinks else []
         array = self.system.object_array_type(self._header(frame), result.objects)
         for sink in self.sinks:
             sink(array)
@@ -207,10 +208,6 @@ class DetectionDirector(_Director):
         for outcome_sink in self.outcome_sinks:
             outcome_sink(array.header, outcomes)
         return array
-
-    @staticmethod
-    def _outcome(detector: Detector, found: int) -> DetectorOutcome:
-        return DetectorOutcome(detector.id, detector.type_name, found, None if found else detector.last_reason)
 
     def run(
         self,

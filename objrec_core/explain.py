@@ -1,5 +1,5 @@
 """Why nothing was found, headless: an outcome sink of the DetectionDirector that writes, per frame and
-detector, the reason a detector found nothing (its ``last_reason``), as text for a person or as JSON Lines
+detector, the reason a detector found nothing (the ``reason`` its result carried), as text for a person or as JSON Lines
 for a program. A detector that found objects in a frame writes nothing for it."""
 
 from __future__ import annotations

@@ -80,16 +80,6 @@ class Kind(ABC):
         """N x 3 float points of a frame for 3D views (kinds with ``has_points``); None otherwise."""
         return None
 
-    def from_rgbd(self, color: Any, depth: Any, fx: float, fy: float, cx: float, cy: float) -> Any | None:
-        """This kind's frame data made from one RGB-D camera frame, or None if the kind cannot take camera frames.
-
-        ``color`` is H x W x 3 ``uint8`` BGR, ``depth`` H x W ``float32`` metres along the optical axis (NaN
-        where the sensor had no return), registered to the colour image; ``fx, fy, cx, cy`` are the pinhole
-        intrinsics in pixels. This is how a robot's camera feeds any kind's parameter file without the app
-        knowing the kind (the inspection patrol).
-        """
-        return None
-
     def copy_frame(self, data: Any) -> Any:
         """An independent copy of frame data (to prove a module leaves its input alone)."""
         return copy.deepcopy(data)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from abc import abstractmethod
+from collections.abc import Iterable
 from dataclasses import dataclass
 from typing import Any, ClassVar
 
@@ -34,6 +35,41 @@ class Rect:
 
 class SelectionRefused(ValueError):
     """A detector could not use an area selection; the message is the reason to show the user."""
+
+
+class Detections(list):  # type: ignore[type-arg]
+    """The objects a detector found in one frame, with why it found none (``reason``) and, for views,
+    anything else it learnt on the way (``details``: matches, a fit).
+
+    The reason travels with the objects instead of being read back from the detector after ``detect``, so a
+    detector keeps no per-frame state and one instance may serve several threads at once, each getting its
+    own frame's reason. It is a list, so code that wants only the objects uses it as one. A non-empty result
+    has no reason: ``reason`` is None whenever objects were found.
+    """
+
+    __slots__ = ("details", "reason")
+
+    def __init__(self, objects: Iterable[Any] = (), reason: str | None = None, details: Any = None) -> None:
+        super().__init__(objects)
+        self.reason: str | None = None if len(self) else reason
+        self.details: Any = details
+
+    def __repr__(self) -> str:
+        return f"Detections({list.__repr__(self)}, reason={self.reason!r})"
+
+    def __reduce__(self) -> tuple[Any, ...]:  # pickled whole (batch workers hand results between processes)
+        return (type(self), (list(self), self.reason, self.details))
+
+
+def detection_reason(detector: Any, objects: list[Any]) -> str | None:
+    """Why ``detector`` found nothing in the frame that gave ``objects``: None when it found something; the
+    result's own ``reason`` for a ``Detections``; for a plug-in written before results carried reasons (a
+    plain list), the ``last_reason`` it may still keep itself."""
+    if objects:
+        return None
+    if isinstance(objects, Detections):
+        return objects.reason
+    return getattr(detector, "last_reason", None)
 
 
 class Filter(Parametrizable):
@@ -73,19 +109,16 @@ class Detector(Parametrizable):
 
     @abstractmethod
     def detect(self, frame: Any) -> list[Any]:
-        """Return the objects found in the frame, each named ``self.object_name``."""
-
-    @property
-    def last_reason(self) -> str | None:
-        """Why the last ``detect`` found nothing, in words a user can act on ("too few matches: 6 of 10
-        needed"); None when it found something, before any frame, or for a detector that gives no reasons.
-        The GUI's message area and ``objrec-detect --explain`` show it; a detector keeps it per instance."""
-        return None
+        """Return the objects found in the frame, each named ``self.object_name``: a ``Detections`` whose
+        ``reason`` says, when it holds none, why ("too few matches: 6 of 10 needed"), in words a user can act
+        on. A plain list is accepted too (a detector that gives no reasons). Keep no per-frame state: the
+        GUI's thread and a worker, or two workers, may call ``detect`` on one instance at once."""
 
     def ready(self) -> str | None:
         """None when this detector can detect; else why not, in words a user can act on ("no target: select
-        one in objrec-define first"). A headless run refuses to start with a detector that is not ready; the
-        GUI runs anyway, since that is where the user makes it ready."""
+        one in objrec-define first"). Unlike a frame's reason this is about the detector's configuration (a
+        target, a model file), so it holds until the user changes it. A headless run refuses to start with a
+        detector that is not ready; the GUI runs anyway, since that is where the user makes it ready."""
         return None
 
     def process_area_selection(self, rect: Rect, frame: Any) -> None:
@@ -98,3 +131,4 @@ class Detector(Parametrizable):
     def render_debug(self, frame: Any, objects: list[Any]) -> Any | None:
         """An extra view of how this detector sees the frame (keypoints, matches), or None."""
         return None
+

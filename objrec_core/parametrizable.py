@@ -38,6 +38,19 @@ def _snapshot_type(cls: type, names: list[str]) -> type:
     return dataclasses.make_dataclass(f"{cls.__name__}Parameters", fields, frozen=True, slots=True)
 
 
+def _overridden(cls: type, klass: type, inherited: Parameter, value: Any) -> Parameter:
+    """A subclass's plain value for an inherited parameter (``class MyHSV(HSVFilter): h_min = 10``): the
+    inherited declaration with that default, as HoloViz param does, checked against it (a ParameterError
+    naming the class and the parameter at class creation). A method or property there would hide the
+    parameter, so it is refused."""
+    if hasattr(value, "__get__") or isinstance(value, staticmethod | classmethod):
+        raise TypeError(f"{klass.__name__}: {inherited.name!r} is a declared parameter; a "
+                        f"{type(value).__name__} cannot replace it (rename one of them)")
+    changed = inherited.with_default(value, klass.__name__)
+    setattr(cls, inherited.name, changed)  # the descriptor again, so ``module.h_min`` reads the value
+    return changed
+
+
 class Parametrizable(Subject, metaclass=ABCMeta):
     """An object whose behaviour is set by declared parameters.
 
@@ -70,8 +83,9 @@ class Parametrizable(Subject, metaclass=ABCMeta):
                     declared[name] = value
                 elif isinstance(value, Rule):
                     rules[name] = value
-                else:  # a subclass replaced the declaration with something else
-                    declared.pop(name, None)
+                elif name in declared:  # ``h_min = 10`` in a subclass: the inherited declaration, new default
+                    declared[name] = _overridden(cls, klass, declared[name], value)
+                else:
                     rules.pop(name, None)
         framework = [k for k in cls.__mro__ if k.__module__.startswith("objrec_core.")]
         for name in declared:

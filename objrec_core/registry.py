@@ -1,31 +1,46 @@
 """The registry: module types, data kinds and source types by name, from entry points or registered in code.
 
+All three are :class:`declare.registry.Registry` groups, so they share one set of rules: the key is the
+entry-point name; entry points are read once and loaded lazily, one at a time; a broken plug-in is one
+UnknownModuleError naming the entry point and its distribution; two distributions declaring one name, or a
+code registration taking a name another object holds, are refused with a message naming both.
+
 Entry-point groups (see docs/writing-a-filter.md and docs/architecture.md):
 
-- ``objrec.modules``: name = the module type written in parameter files, value = ``package.module:Class``.
+- ``objrec.modules``: name = the module type written in parameter files, value = ``package.module:Class``
+  (a Parametrizable subclass whose ``type_name`` is the name).
 - ``objrec.kinds``: name = a data kind (``2d``, ``3d``), value = ``package.module:KindClass`` (a
-  :class:`~objrec_core.kinds.Kind` subclass or instance).
-- ``objrec.sources``: name = ``KIND.NAME`` (``2d.demo``), value = ``package.module:SourceClass`` (a
-  :class:`~objrec_core.sources.FrameSource` subclass). The kind prefix lets a 2D run load only 2D sources.
+  :class:`~objrec_core.kinds.Kind` subclass or instance whose ``name`` is the name).
+- ``objrec.sources``: name = ``KIND.NAME`` (``2d.demo``), value = a
+  :class:`~objrec_core.sources.FrameSource` subclass of that kind, or a
+  :class:`~objrec_core.source_declaration.DeclaredSource` (its kind, schemes, extensions and marker-file
+  folders, and where the implementation lives) for a source whose module is heavy to import.
 
-Entry points are read once and loaded lazily, one type at a time, so a 2D parameter file never imports
-Open3D. Code (scripts, tests) can register the same things with ``register_module``, ``register_kind`` and
+Which sources are loaded: a run of one kind looks only at the entry points named ``KIND.*`` of its kind.
+Their schemes and extensions come from the declarations (a FrameSource class declares its own; a
+DeclaredSource does without importing the implementation), and an implementation behind a declaration is
+imported only when a spec chose it. So ``open_source("demo", "2d")`` imports objrec2d's sources and no
+objrec3d or objrec_ros module. The other kinds are consulted only to word an error ("a source of 3d data,
+but this pipeline works on 2d data") or when the asked kind reads a path only as a fallback (a folder, a
+video of an unknown suffix), to let another kind's own reader of it win.
+
+Code (scripts, tests) registers the same things with ``register_module``, ``register_kind`` and
 ``register_source``.
 """
 
 from __future__ import annotations
 
-import functools
 import logging
 import stat
-import threading
-from importlib.metadata import EntryPoint, entry_points
+from collections.abc import Callable
 from typing import Any, TypeVar
 
+from declare.registry import Registry, distribution_of
 from strictio.opener import describe_mode
 
 from .kinds import Kind
 from .parametrizable import Parametrizable
+from .source_declaration import DeclaredSource
 from .sources import FrameSource, SourceError, SourceSpec
 
 log = logging.getLogger(__name__)
@@ -34,251 +49,280 @@ MODULE_GROUP = "objrec.modules"
 KIND_GROUP = "objrec.kinds"
 SOURCE_GROUP = "objrec.sources"
 
-_lock = threading.RLock()
-_modules: dict[str, type[Parametrizable]] = {}
-_kinds: dict[str, Kind] = {}
-_sources: dict[str, type[FrameSource]] = {}
-
 T = TypeVar("T", bound=type[Parametrizable])
 S = TypeVar("S", bound=type[FrameSource])
+
+#: What the source group holds: a FrameSource subclass, or the declaration of one.
+SourceEntry = type[FrameSource] | DeclaredSource
 
 
 class UnknownModuleError(LookupError):
     """A module type, data kind or source type that is neither registered nor installed as an entry point,
-    or whose plug-in cannot be loaded."""
+    whose plug-in cannot be loaded, or whose name two plug-ins claim."""
 
 
-@functools.cache
-def _entry_points(group: str) -> dict[str, EntryPoint]:
-    """Installed entry points, read once: scanning every package's metadata costs milliseconds."""
-    return {ep.name: ep for ep in entry_points(group=group)}
+def _valid_module(name: str, obj: Any) -> type[Parametrizable]:
+    if not (isinstance(obj, type) and issubclass(obj, Parametrizable)):
+        raise TypeError(f"{obj!r} is not a Parametrizable subclass")
+    if obj.type_name != name:
+        raise ValueError(f"declares type_name {obj.type_name!r}, not {name!r}")
+    return obj
+
+
+def _valid_kind(name: str, obj: Any) -> Kind:
+    instance = obj() if isinstance(obj, type) and issubclass(obj, Kind) else obj
+    if not isinstance(instance, Kind):
+        raise TypeError(f"{obj!r} is not a Kind")
+    if instance.name != name:
+        raise ValueError(f"names its kind {instance.name!r}, not {name!r}")
+    return instance
+
+
+def _valid_source(name: str, obj: Any) -> SourceEntry:
+    kind, dot, rest = name.partition(".")
+    if not (dot and kind and rest):
+        raise ValueError(f"source names are KIND.NAME (2d.demo), not {name!r}")
+    if not (isinstance(obj, DeclaredSource) or (isinstance(obj, type) and issubclass(obj, FrameSource))):
+        raise TypeError(f"{obj!r} is not a FrameSource subclass or a DeclaredSource")
+    if obj.kind != kind:
+        raise ValueError(f"is a source of kind {obj.kind!r}, and its name says {kind!r}")
+    return obj
+
+
+def _source_name(obj: Any) -> str:
+    kind = getattr(obj, "kind", None)
+    if not kind:
+        raise TypeError(f"{obj!r} is not a FrameSource subclass with a kind")
+    return f"{kind}.{getattr(obj, '__name__', type(obj).__name__)}"
+
+
+#: The three groups; the functions below are their public face (plug-in authors use those, not these).
+MODULES: Registry[type[Parametrizable]] = Registry(
+    MODULE_GROUP, "module type", error=UnknownModuleError, validate=_valid_module,
+    name_of=lambda cls: getattr(cls, "type_name", None) or repr(cls))
+KINDS: Registry[Kind] = Registry(
+    KIND_GROUP, "data kind", error=UnknownModuleError, validate=_valid_kind,
+    name_of=lambda kind: getattr(kind, "name", None) or repr(kind))
+SOURCES: Registry[SourceEntry] = Registry(
+    SOURCE_GROUP, "source type", error=UnknownModuleError, validate=_valid_source, name_of=_source_name)
 
 
 def refresh() -> None:
-    """Forget the entry points read so far (after installing a plug-in into a running process)."""
-    _entry_points.cache_clear()
-    with _lock:
-        _kinds.clear()
-        _sources.clear()
-
-
-def _load(ep: EntryPoint, what: str) -> Any:
-    try:
-        return ep.load()
-    except Exception as exc:  # a broken plug-in must not take the app down with a traceback
-        raise UnknownModuleError(f"{what} {ep.name!r} from {ep.value} cannot be loaded: {exc}") from exc
+    """Re-read the entry points of every group (after installing a plug-in into a running process)."""
+    for registry in (MODULES, KINDS, SOURCES):
+        registry.refresh()
 
 
 # -- module types -----------------------------------------------------------------------------------------
 def register_module(cls: T) -> T:
     """Register a module type under its ``type_name`` (usable as a decorator). Entry points are the way
-    for installed packages; this is for scripts and tests."""
-    if not (isinstance(cls, type) and issubclass(cls, Parametrizable)):
-        raise TypeError(f"{cls!r} is not a Parametrizable subclass")
-    with _lock:
-        previous = _modules.get(cls.type_name)
-        if previous is not None and previous is not cls:
-            log.warning("module type %s re-registered: %r replaces %r", cls.type_name, cls, previous)
-        _modules[cls.type_name] = cls
+    for installed packages; this is for scripts and tests. TypeError for a class that is not a module type;
+    UnknownModuleError when another class holds the name."""
+    MODULES.register(cls)
     return cls
 
 
 def unregister_module(name: str) -> None:
-    with _lock:
-        _modules.pop(name, None)
+    """Forget a module type registered in code; unknown names are ignored."""
+    MODULES.unregister(name)
 
 
 def module_type_names() -> list[str]:
     """Every known type name, without importing any module."""
-    with _lock:
-        names = set(_modules)
-    return sorted(names | set(_entry_points(MODULE_GROUP)))
+    return MODULES.names()
 
 
 def module_type(name: str) -> type[Parametrizable]:
     """The class registered under ``name``; loads its entry point on first use."""
-    with _lock:
-        if name in _modules:
-            return _modules[name]
-    ep = _entry_points(MODULE_GROUP).get(name)
-    if ep is None:
-        known = ", ".join(module_type_names()) or "none"
-        raise UnknownModuleError(f"unknown module type {name!r} (known: {known})")
-    klass = _load(ep, "module type")
-    if not (isinstance(klass, type) and issubclass(klass, Parametrizable)):
-        raise UnknownModuleError(f"entry point {name} = {ep.value} is not a Parametrizable subclass")
-    if klass.type_name != name:
-        raise UnknownModuleError(f"entry point {name} = {ep.value} declares type_name {klass.type_name!r}")
-    with _lock:
-        return _modules.setdefault(name, klass)
+    return MODULES.get(name)
 
 
 def module_types(kind: str | None = None) -> dict[str, type[Parametrizable]]:
     """Load every module type (for a GUI's Pipeline menu); types that fail to load are logged and skipped."""
-    found = {}
-    for name in module_type_names():
-        try:
-            klass = module_type(name)
-        except UnknownModuleError as exc:
-            log.warning("%s", exc)
-            continue
-        if kind is None or klass.kind == kind:
-            found[name] = klass
-    return found
+    return {name: klass for name, klass in MODULES.items().items() if kind is None or klass.kind == kind}
 
 
 # -- data kinds -------------------------------------------------------------------------------------------
 def register_kind(kind: Kind | type[Kind]) -> Kind:
-    """Register a data kind (an instance, or a class made with no arguments)."""
-    instance = kind() if isinstance(kind, type) else kind
-    if not isinstance(instance, Kind):
+    """Register a data kind (an instance, or a class made with no arguments) under its ``name``."""
+    if isinstance(kind, type) and issubclass(kind, Kind):
+        kind = kind()
+    if not isinstance(kind, Kind):
         raise TypeError(f"{kind!r} is not a Kind")
-    with _lock:
-        _kinds[instance.name] = instance
-    return instance
+    return KINDS.register(kind)
 
 
 def unregister_kind(name: str) -> None:
-    with _lock:
-        _kinds.pop(name, None)
+    """Forget a data kind registered in code; unknown names are ignored."""
+    KINDS.unregister(name)
 
 
 def kind_names() -> list[str]:
     """Every known data kind, without importing any."""
-    with _lock:
-        names = set(_kinds)
-    return sorted(names | set(_entry_points(KIND_GROUP)))
+    return KINDS.names()
 
 
 def get_kind(name: str) -> Kind:
-    """The data kind registered under ``name``."""
-    with _lock:
-        if name in _kinds:
-            return _kinds[name]
-    ep = _entry_points(KIND_GROUP).get(name) if isinstance(name, str) else None
-    if ep is None:
-        raise UnknownModuleError(f"unknown data kind {name!r} (known: {', '.join(kind_names()) or 'none'})")
-    loaded = _load(ep, "data kind")
-    instance = loaded() if isinstance(loaded, type) else loaded
-    if not isinstance(instance, Kind):
-        raise UnknownModuleError(f"entry point {name} = {ep.value} is not a Kind")
-    if instance.name != name:
-        raise UnknownModuleError(f"entry point {name} = {ep.value} names its kind {instance.name!r}")
-    with _lock:
-        return _kinds.setdefault(name, instance)
+    """The data kind registered under ``name``; loads its entry point on first use."""
+    return KINDS.get(name)
 
 
 # -- source types -----------------------------------------------------------------------------------------
-def register_source(cls: S) -> S:
-    """Register a source type (usable as a decorator); its ``kind`` must be set."""
+def register_source(cls: S, name: str | None = None) -> S:
+    """Register a source type (usable as a decorator) under ``KIND.NAME``; by default ``KIND.ClassName``.
+    Its ``kind`` must be set."""
     if not (isinstance(cls, type) and issubclass(cls, FrameSource)) or not cls.kind:
         raise TypeError(f"{cls!r} is not a FrameSource subclass with a kind")
-    with _lock:
-        _sources[f"{cls.kind}.{cls.__name__}"] = cls
+    SOURCES.register(cls, name)
     return cls
 
 
-def unregister_source(cls: type[FrameSource]) -> None:
-    with _lock:
-        _sources.pop(f"{cls.kind}.{cls.__name__}", None)
+def unregister_source(source: type[FrameSource] | str) -> None:
+    """Forget a source type registered in code: by its ``KIND.NAME``, or every name a class is registered
+    under."""
+    if isinstance(source, str):
+        SOURCES.unregister(source)
+        return
+    for name in SOURCES.names():
+        if SOURCES.registered(name) is source:
+            SOURCES.unregister(name)
+
+
+def _of_kind(kind: str | None) -> Callable[[str], bool] | None:
+    """Selects the source names of a kind (``2d.*``), so the other kinds' entry points stay unloaded."""
+    return None if kind is None else (lambda name: name.partition(".")[0] == kind)
+
+
+def source_entries(kind: str | None = None) -> dict[str, SourceEntry]:
+    """The source types of a kind (or of every kind) by name, as declared: a FrameSource subclass, or a
+    DeclaredSource whose implementation is not imported. Broken entry points are logged and skipped."""
+    return SOURCES.items(_of_kind(kind))
+
+
+def source_schemes(kind: str | None = None) -> set[str]:
+    """The schemes sources of a kind (or of every kind) accept, without importing any declared source."""
+    return {s for entry in source_entries(kind).values() for s in entry.schemes}
+
+
+def _implementation(name: str, entry: SourceEntry) -> type[FrameSource]:
+    """The FrameSource subclass of an entry, importing a declared one's implementation."""
+    if not isinstance(entry, DeclaredSource):
+        return entry
+    try:
+        return entry.load()
+    except Exception as exc:  # a broken plug-in is one line naming it
+        ep = SOURCES.entry_points().get(name)
+        origin = f" (declared by {ep[0].value} from {distribution_of(ep[0])})" if ep else ""
+        raise UnknownModuleError(f"source type {name!r} = {entry.implementation}{origin} cannot be loaded: "
+                                 f"{type(exc).__name__}: {exc}") from exc
 
 
 def source_types(kind: str | None = None) -> list[type[FrameSource]]:
-    """The source types of a kind (or of every kind), loading their entry points; broken ones are logged."""
-    found: dict[str, type[FrameSource]] = {}
-    for name, ep in _entry_points(SOURCE_GROUP).items():
-        ep_kind = name.split(".", 1)[0]
-        if kind is not None and ep_kind != kind:
-            continue
+    """The source types of a kind (or of every kind), their implementations loaded; broken ones are logged.
+    For schemes and extensions alone, :func:`source_entries` imports less."""
+    found: list[type[FrameSource]] = []
+    for name, entry in source_entries(kind).items():
         try:
-            klass = _load(ep, "source type")
+            klass = _implementation(name, entry)
         except UnknownModuleError as exc:
             log.warning("%s", exc)
             continue
-        if not (isinstance(klass, type) and issubclass(klass, FrameSource)) or klass.kind != ep_kind:
-            log.warning("entry point %s = %s is not a FrameSource of kind %s", name, ep.value, ep_kind)
-            continue
-        found[f"{klass.kind}.{klass.__name__}"] = klass
-    with _lock:
-        found.update({k: v for k, v in _sources.items() if kind is None or v.kind == kind})
-    return list(found.values())
+        if klass not in found:
+            found.append(klass)
+    return found
 
 
 def source_usage(kind: str | None = None) -> str:
-    """The schemes and extensions accepted, for messages."""
-    types = source_types(kind)
-    schemes = sorted({f"{s}:" for t in types for s in t.schemes})
-    extensions = sorted({e for t in types for e in t.extensions})
+    """The schemes and extensions accepted, for messages (from the declarations: no implementation behind a
+    DeclaredSource is imported)."""
+    entries = list(source_entries(kind).values())
+    schemes = sorted({f"{s}:" for t in entries for s in t.schemes})
+    extensions = sorted({e for t in entries for e in t.extensions})
     parts = []
     if schemes:
         parts.append("schemes " + ", ".join(schemes))
     if extensions:
         parts.append("files " + " ".join(extensions))
-    if any(t.folders for t in types):
+    if any(t.folders or getattr(t, "folder_marker", "") for t in entries):
         parts.append("folders")
     return "; ".join(parts) or "none installed"
 
 
-def _choose(spec: SourceSpec, types: list[type[FrameSource]]) -> tuple[int, list[type[FrameSource]]]:
-    """The best-matching types and how well they match (2: by scheme, extension or content; 1: fallback)."""
+def _choose(spec: SourceSpec, entries: list[SourceEntry]) -> tuple[int, list[SourceEntry]]:
+    """The best-matching entries and how well they match (2: by scheme, extension or content; 1: fallback)."""
     if spec.scheme is not None:
-        return 2, [t for t in types if spec.scheme in t.schemes]
+        return 2, [t for t in entries if spec.scheme in t.schemes]
     assert spec.path is not None
     if not spec.path.exists():
         return 0, []
-    scores = [(t.path_score(spec.path), t) for t in types]
+    scores = [(t.path_score(spec.path), t) for t in entries]
     best = max((s for s, _ in scores), default=0)
     return best, [t for s, t in scores if s == best and s > 0]
 
 
 def source_kinds(text: str) -> list[str]:
     """The kinds that have a source for this spec (``demo`` has one in every built-in kind)."""
-    types = source_types()
-    spec = SourceSpec.parse(text, {s for t in types for s in t.schemes})
-    return sorted({t.kind for t in _choose(spec, types)[1] if t.kind})
+    entries = list(source_entries().values())
+    spec = SourceSpec.parse(text, {s for t in entries for s in t.schemes})
+    return sorted({t.kind for t in _choose(spec, entries)[1] if t.kind})
 
 
 def open_source(text: str, kind: str | None = None) -> FrameSource:
     """Open the source a user named, for a data kind (None: whichever kind has a source for it).
 
-    SourceError says what is wrong and, for a spec no source type takes, lists the accepted schemes and
-    extensions.
+    Only the asked kind's sources are consulted to parse and choose (see the module docstring); SourceError
+    says what is wrong and, for a spec no source type takes, lists the accepted schemes and extensions.
     """
     if kind is not None:
         get_kind(kind)  # an unknown kind is an error of its own
-    every = source_types()
-    spec = SourceSpec.parse(text, {s for t in every for s in t.schemes})
+    named = source_entries(kind)
+    entries = list(named.values())
+    spec = SourceSpec.parse(text, {s for t in entries for s in t.schemes})
     if spec.path is not None and spec.path.exists() and not (spec.path.is_file() or spec.path.is_dir()):
         # a FIFO would block a reader forever and a device never ends: no source type is asked about it
         mode = spec.path.stat().st_mode
-        cameras = any("camera" in t.schemes for t in every)
+        cameras = any("camera" in t.schemes for t in entries)
         hint = " (for a camera, give camera:N)" if stat.S_ISCHR(mode) and cameras else ""
         raise SourceError(f"{spec.text}: is {describe_mode(mode)}, not a regular file{hint}")
-    score, chosen = _choose(spec, [t for t in every if kind is None or t.kind == kind])
+    score, chosen = _choose(spec, entries)
     what = f"{kind} " if kind else ""
-    if kind is not None and score < 2:  # a fallback match loses to another kind's own extension
-        best, _ = _choose(spec, [t for t in every if t.kind != kind])
+    if kind is not None and 0 < score < 2:  # a fallback match loses to another kind's own reader
+        others = [t for name, t in source_entries().items() if name not in named]
+        best, _ = _choose(spec, others)
         if best > score:
             chosen = []
     if not chosen:
-        if spec.path is not None and not spec.path.exists():
-            raise SourceError(f"{spec.text}: no such file or folder ({what}sources: {source_usage(kind)})")
-        others = [k for k in source_kinds(text) if k != kind] if kind else []
-        if others:
-            raise SourceError(f"{spec.text}: a source of {', '.join(others)} data, but this pipeline works on "
-                              f"{kind} data")
-        if spec.scheme is not None:
-            raise SourceError(f"{spec.text}: unknown source scheme {spec.scheme}: ({what}sources: "
-                              f"{source_usage(kind)})")
-        raise SourceError(f"{spec.text}: no {what}source reads this ({what}sources: {source_usage(kind)})")
-    kinds = sorted({t.kind for t in chosen if t.kind})
-    if len(kinds) > 1:
-        raise SourceError(f"{spec.text}: a source of several kinds ({', '.join(kinds)}); the pipeline's kind "
-                          "decides which, so open a parameter file or add a module first")
-    if len(chosen) > 1:
-        names = ", ".join(t.__name__ for t in chosen)
-        raise SourceError(f"{spec.text}: several {what}source types read this ({names}); name one by its scheme")
-    source_type = chosen[0]
+        raise _no_source(spec, kind, what)
+    kinds_chosen = sorted({t.kind for t in chosen if t.kind})
+    if len(kinds_chosen) > 1:
+        raise SourceError(f"{spec.text}: a source of several kinds ({', '.join(kinds_chosen)}); the pipeline's "
+                          "kind decides which, so open a parameter file or add a module first")
+    names = [name for name, t in named.items() if any(t is c for c in chosen)]
+    types: list[type[FrameSource]] = []
+    for name in names:
+        try:
+            klass = _implementation(name, SOURCES.get(name))
+        except UnknownModuleError as exc:
+            raise SourceError(f"{spec.text}: {exc}") from None
+        if klass not in types:
+            types.append(klass)
+    if len(types) > 1:
+        classes = ", ".join(t.__name__ for t in types)
+        raise SourceError(f"{spec.text}: several {what}source types read this ({classes}); name one by its scheme")
+    source_type = types[0]
     options = source_type.typed_options(spec)
     return source_type.from_spec(spec, options)
 
+
+def _no_source(spec: SourceSpec, kind: str | None, what: str) -> SourceError:
+    """Why no source of the kind takes a spec: another kind's, no such file, an unknown scheme or nothing."""
+    others = [k for k in source_kinds(spec.text) if k != kind] if kind else []
+    if others:
+        return SourceError(f"{spec.text}: a source of {', '.join(others)} data, but this pipeline works on "
+                           f"{kind} data")
+    if spec.path is not None and not spec.path.exists():
+        return SourceError(f"{spec.text}: no such file or folder ({what}sources: {source_usage(kind)})")
+    if spec.scheme is not None:
+        return SourceError(f"{spec.text}: unknown source scheme {spec.scheme}: ({what}sources: "
+                           f"{source_usage(kind)})")
+    return SourceError(f"{spec.text}: no {what}source reads this ({what}sources: {source_usage(kind)})")

@@ -1,7 +1,9 @@
 """The parameter-file schema: a YAML document checked against the registry and the modules' declarations.
 
 Validation builds (or reuses) every module and checks every value, rule and state before anything is
-applied, so a file loads whole or not at all. Errors name the file, the key path and the value.
+applied, so a file loads whole or not at all. The document's own fields are a table (:func:`file_fields`);
+each module's parameters are checked by its declarations. Errors are the one error of every file reader:
+``params.yaml:12: pipeline[1].parameters.h_max: 300 is invalid: out of range, allowed int in 0..179``.
 """
 
 from __future__ import annotations
@@ -11,9 +13,11 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from declare.parameters import ParameterError, printable, short_repr
-from strictio import InputError, YAMLLimits, read_yaml
-from strictio.errors import escape_controls
+from declare import Int, Str
+from declare.fields import Document, DocumentError, Free, ListOf, Place, Record, Value, not_blank
+from declare.fields import read_document as read_yaml_document
+from declare.parameters import ParameterError
+from strictio import YAMLLimits
 
 from .modules import Detector
 from .parametrizable import Parametrizable, check_module_id
@@ -26,19 +30,38 @@ ENTRY_KEYS = ("type", "id", "object_name", "parameters", "state")
 PARAMETER_FILE_LIMITS = YAMLLimits(max_bytes=32 * 1024 * 1024, max_depth=32)
 
 
-class ParameterFileError(Exception):
-    """What is wrong with a parameter file: the file, the key path and the problem.
+#: What is wrong with a parameter file: the one error of every file reader (``FILE:LINE: key.path: ...``),
+#: one line whatever the file holds (control characters in names and values are shown escaped).
+ParameterFileError = DocumentError
 
-    The text is one line whatever the file holds: control characters in names and values are shown escaped
-    (``\\n``, ``\\x1b``), so a key cannot split the message or send a terminal its codes.
-    """
 
-    def __init__(self, path: str | os.PathLike[str], key_path: str, message: str) -> None:
-        self.path = str(path)
-        self.key_path = key_path
-        self.message = message
-        where = f"{self.path}: {key_path}" if key_path else self.path
-        super().__init__(escape_controls(f"{where}: {message}"))
+def _format_version(value: int) -> str | None:
+    return None if value <= FORMAT_VERSION else f"newer than this objrec reads ({FORMAT_VERSION})"
+
+
+def _known_kind(value: str) -> str | None:
+    known = kind_names()
+    return None if value in known else f"expected one of {', '.join(known)}"
+
+
+_ENTRY_FIELDS = Record({
+    "type": Value(Str("", "the module's registered type"), required=True),
+    "id": Value(Str("", "the module's id, unique in the file"), default=None),
+    "object_name": Value(Str("", "the name of what a detector finds"), default=None),
+    "parameters": Free(kinds=(dict, type(None)), what="a mapping of parameter names to values"),
+    "state": Free(doc="a module's non-scalar state (a feature target)"),
+})
+
+
+def file_fields() -> Record:
+    """The table of a parameter file's own fields (the kinds it may name are those registered now)."""
+    return Record({
+        "format_version": Value(Int(FORMAT_VERSION, "the file format", min=1), required=True, check=_format_version),
+        "object_name": Value(Str("object", "what the system recognises"), check=not_blank),
+        "kind": Value(Str("", "the data kind"), required=True, check=_known_kind),
+        "description": Str("", "what the system is for"),
+        "pipeline": ListOf(_ENTRY_FIELDS, required=True, min_items=1, doc="the modules, in order"),
+    })
 
 
 @dataclass
@@ -69,119 +92,83 @@ class ParameterDocument:
                                                                                        strict=True))
 
 
+def _read(path: Path) -> Document:
+    """The file as a document (its data a mapping), through the project's strict reader."""
+    document = read_yaml_document(path, PARAMETER_FILE_LIMITS)
+    if not isinstance(document.data, dict):
+        raise document.root.fail(f"expected a mapping at the top, found {type(document.data).__name__}")
+    return document
+
+
 def read_document(path: Path) -> dict[str, Any]:
     """The file's YAML mapping, through the project's strict reader."""
-    try:
-        doc = read_yaml(path, PARAMETER_FILE_LIMITS)
-    except InputError as exc:
-        raise ParameterFileError(path, exc.where, exc.message) from None
-    if not isinstance(doc, dict):
-        raise ParameterFileError(path, "", f"expected a mapping at the top, found {type(doc).__name__}")
-    return doc
+    return _read(path).data
 
 
-def _require(path: Path, key: str, value: Any, kind: type | tuple[type, ...], what: str) -> Any:
-    if (isinstance(value, bool) and kind is not bool) or not isinstance(value, kind):
-        raise ParameterFileError(path, key, f"expected {what}, found {short_repr(value)}")
-    return value
+def peek_kind(path: str | os.PathLike[str]) -> str:
+    """The ``kind`` a parameter file declares, without building its modules."""
+    document = _read(Path(path))
+    kind = document.data.get("kind")
+    if not isinstance(kind, str):
+        where = document.root.key("kind")
+        raise where.fail("missing") if kind is None else where.fail("expected text", kind)
+    return kind
 
 
 def validate_document(path: Path, existing: tuple[Parametrizable, ...] | None = None) -> ParameterDocument:
     """Read and check a whole file. Modules of ``existing`` whose position, type and id match are reused
     (validated against, not changed); every other entry gets a new module."""
-    doc = read_document(path)
-    unknown = sorted(str(k) for k in doc if k not in TOP_KEYS)
-    if unknown:
-        raise ParameterFileError(path, printable(unknown[0]), f"unknown key (allowed: {', '.join(TOP_KEYS)})")
-    for key in ("format_version", "kind", "pipeline"):
-        if key not in doc:
-            raise ParameterFileError(path, key, "missing")
-    version = _require(path, "format_version", doc["format_version"], int, "an integer")
-    if version > FORMAT_VERSION:
-        raise ParameterFileError(
-            path, "format_version", f"{version} is newer than this objrec reads ({FORMAT_VERSION})"
-        )
-    if version < 1:
-        raise ParameterFileError(path, "format_version", f"{version} is not a format version")
-    kind = doc["kind"]
-    known = kind_names()
-    if not isinstance(kind, str) or kind not in known:
-        raise ParameterFileError(path, "kind", f"expected one of {', '.join(known)}, found {short_repr(kind)}")
-    object_name = _require(path, "object_name", doc.get("object_name", "object"), str, "text")
-    if not object_name.strip():
-        raise ParameterFileError(path, "object_name", "is empty")
-    description = _require(path, "description", doc.get("description", ""), str, "text")
-    pipeline = _require(path, "pipeline", doc["pipeline"], list, "a list of modules")
-    if not pipeline:
-        raise ParameterFileError(path, "pipeline", "is empty; a system needs at least one module")
+    document = _read(path)
+    doc = file_fields().read(document.data, document.root)
+    at = document.root.key("pipeline")
     entries: list[Entry] = []
     ids: set[str] = set()
-    for index, raw in enumerate(pipeline):
-        entry = _validate_entry(path, index, raw, kind, existing)
+    for index, raw in enumerate(doc["pipeline"]):
+        entry = _validate_entry(at.item(index), index, raw, doc["kind"], existing)
         if entry.module_id in ids:
-            raise ParameterFileError(path, f"pipeline[{index}].id", f"{entry.module_id!r} is used twice")
+            raise at.item(index).key("id").fail("used twice", entry.module_id)
         ids.add(entry.module_id)
         entries.append(entry)
-    return ParameterDocument(path, kind, object_name, description, entries)
+    return ParameterDocument(path, doc["kind"], doc["object_name"], doc["description"], entries)
 
 
-def _validate_entry(path: Path, index: int, raw: Any, kind: str, existing: tuple[Parametrizable, ...] | None) -> Entry:
-    at = f"pipeline[{index}]"
-    if not isinstance(raw, dict):
-        raise ParameterFileError(path, at, f"expected a mapping with type, id and parameters, found {short_repr(raw)}")
-    unknown = sorted(str(k) for k in raw if k not in ENTRY_KEYS)
-    if unknown:
-        raise ParameterFileError(
-            path, f"{at}.{printable(unknown[0])}", f"unknown key (allowed: {', '.join(ENTRY_KEYS)})"
-        )
-    if "type" not in raw:
-        raise ParameterFileError(path, f"{at}.type", "missing")
-    type_name = _require(path, f"{at}.type", raw["type"], str, "a module type name")
+def _validate_entry(at: Place, index: int, raw: dict[str, Any], kind: str,
+                    existing: tuple[Parametrizable, ...] | None) -> Entry:
+    type_name = raw["type"]
     try:
         klass = module_type(type_name)
     except UnknownModuleError as exc:
-        raise ParameterFileError(path, f"{at}.type", str(exc)) from None
+        raise at.key("type").fail(str(exc)) from None
     if klass.kind is not None and klass.kind != kind:
-        raise ParameterFileError(path, f"{at}.type", f"{type_name} works on {klass.kind} data, the file is {kind}")
-    module_id = raw.get("id", type_name)
+        raise at.key("type").fail(f"{type_name} works on {klass.kind} data, the file is {kind}")
+    module_id = raw["id"] if raw["id"] is not None else type_name
     try:
         check_module_id(module_id)
     except ValueError as exc:
-        raise ParameterFileError(path, f"{at}.id", str(exc)) from None
-    object_name = raw.get("object_name")
-    if object_name is not None:
-        if not issubclass(klass, Detector):
-            raise ParameterFileError(path, f"{at}.object_name", "only detectors name the objects they find")
-        _require(path, f"{at}.object_name", object_name, str, "text")
-    parameters = raw.get("parameters")
-    if parameters is None:
-        parameters = {}
-    if not isinstance(parameters, dict):
-        raise ParameterFileError(path, f"{at}.parameters", f"expected a mapping, found {short_repr(parameters)}")
+        raise at.key("id").fail(str(exc)) from None
+    object_name = raw["object_name"]
+    if object_name is not None and not issubclass(klass, Detector):
+        raise at.key("object_name").fail("only detectors name the objects they find")
+    parameters = raw["parameters"] or {}
     module = existing[index] if existing and index < len(existing) else None
     if module is None or type(module) is not klass or module.id != module_id:
         try:
             module = klass(module_id)  # new, or a stand-in that shows the mismatch after validation
         except ParameterError as exc:  # a default this installation cannot serve
-            raise ParameterFileError(path, f"{at}.parameters.{exc.parameter}", exc.rule) from None
+            raise at.key("parameters").key(exc.parameter).fail(exc.rule) from None
     values = {}
     for name, value in parameters.items():
         try:
             values.update(module.validate_parameters({name: value}))
         except ParameterError as exc:
-            raise ParameterFileError(
-                path, f"{at}.parameters.{printable(name)}",
-                f"{short_repr(value)} is invalid: {exc.rule}",
-            ) from None
+            raise at.key("parameters").key(name).fail(exc.rule, value) from None
     complete = {**klass.default_values(), **values}
     try:
         module.check_values(complete)
     except ParameterError as exc:
-        raise ParameterFileError(
-            path, f"{at}.parameters.{exc.parameter}", f"{short_repr(exc.value)} is invalid: {exc.rule}"
-        ) from None
+        raise at.key("parameters").key(exc.parameter).fail(exc.rule, exc.value) from None
     try:
-        prepared = module.prepare_state(raw.get("state"), complete)
+        prepared = module.prepare_state(raw["state"], complete)
     except (ValueError, TypeError, KeyError) as exc:
-        raise ParameterFileError(path, f"{at}.state", str(exc)) from None
+        raise at.key("state").fail(str(exc)) from None
     return Entry(type_name, module_id, object_name, values, prepared, module)

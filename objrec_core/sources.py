@@ -17,7 +17,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, ClassVar
 
-from declare.parameters import Bool, Choice, Float, Int, Parameter, ParameterError, Str, short_repr
+from declare.parameters import Parameter, ParameterError, short_repr
 
 
 class SourceError(RuntimeError):
@@ -82,24 +82,6 @@ class SourceSpec:
         return cls(text, scheme, options, tuple(positional))
 
 
-def _convert(text: str, spec: Parameter) -> Any:
-    """An option's text as its declared type (validated afterwards by the declaration)."""
-    if isinstance(spec, Int):
-        return int(text)
-    if isinstance(spec, Float):
-        return float(text)
-    if isinstance(spec, Bool):
-        lowered = text.lower()
-        if lowered in ("1", "true", "yes", "on"):
-            return True
-        if lowered in ("0", "false", "no", "off"):
-            return False
-        raise ValueError(text)
-    if isinstance(spec, Str | Choice):
-        return text
-    raise TypeError(f"option type {type(spec).__name__} cannot be given in a source spec")
-
-
 class FrameSource(ABC):
     """An iterable of frames that knows its name and, where it can, its length.
 
@@ -107,7 +89,8 @@ class FrameSource(ABC):
 
     - ``kind``: the data kind of its frames; ``schemes``: ``("demo",)`` for ``demo:...`` specs;
       ``extensions``: file suffixes it reads (``(".png", ".jpg")``); ``folders``: whether it reads a folder;
-    - ``options``: ``{name: Int(...)/Float/Bool/Str/Choice}``, validated like module parameters;
+    - ``options``: ``{name: Int(...)/Float/Bool/Str/Choice}`` (or a plug-in's parameter type), read from
+      text by the declaration's ``parse_text`` and validated like module parameters;
       ``positional``: the option names that values without ``key=`` fill, in order;
     - ``from_spec(spec, options)``: makes the source (options already typed and validated).
 
@@ -168,10 +151,9 @@ class FrameSource(ABC):
                 known = ", ".join(cls.options) or "none"
                 raise SourceError(f"{spec.text}: unknown option {short_repr(key)} (options: {known})")
             try:
-                values[key] = option.validate(_convert(text, option), spec.scheme or cls.__name__)
-            except (ValueError, TypeError) as exc:
-                rule = exc.rule if isinstance(exc, ParameterError) else f"expected {option.describe()}"
-                raise SourceError(f"{spec.text}: option {key}={short_repr(text)} is invalid: {rule}") from None
+                values[key] = option.parse_text(text, spec.scheme or cls.__name__)
+            except ParameterError as exc:
+                raise SourceError(f"{spec.text}: option {key}={short_repr(text)} is invalid: {exc.rule}") from None
         return values
 
     @classmethod

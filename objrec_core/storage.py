@@ -19,8 +19,10 @@ from strictio import OutputError, write_atomically
 from .modules import Detector
 from .observer import Change
 from .parametrizable import Parametrizable
-from .schema import FORMAT_VERSION, ParameterDocument, ParameterFileError, read_document, validate_document
+from .schema import FORMAT_VERSION, ParameterDocument, ParameterFileError, peek_kind, validate_document
 from .system import PipelineError, RecognitionSystem
+
+__all__ = ["FORMAT_VERSION", "Opened", "ParameterSaveError", "ParameterStorage", "build_system", "peek_kind"]
 
 
 class ParameterSaveError(ParameterFileError, OutputError):
@@ -30,7 +32,11 @@ class ParameterSaveError(ParameterFileError, OutputError):
 
     def __init__(self, path: str | os.PathLike[str], message: str) -> None:
         OutputError.__init__(self, path, message)
-        self.key_path = ""
+        self.key_path = self.where = self.rule = ""
+        self.line = None
+
+    def __reduce__(self) -> tuple[object, ...]:  # both a ValueError and an OSError: rebuilt by its own __init__
+        return ParameterSaveError, (self.path, self.message)
 
 
 class Opened(Enum):
@@ -170,12 +176,3 @@ def build_system(path: str | os.PathLike[str]) -> RecognitionSystem:
     system = RecognitionSystem()
     ParameterStorage(system).load_system(path)
     return system
-
-
-def peek_kind(path: str | os.PathLike[str]) -> str:
-    """The ``kind`` a parameter file declares, without building its modules."""
-    doc = read_document(Path(path))
-    kind = doc.get("kind")
-    if not isinstance(kind, str):
-        raise ParameterFileError(path, "kind", "missing" if kind is None else f"expected text, found {kind!r}")
-    return kind

@@ -8,7 +8,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from .messages import DetectedObjectArray
-from .modules import Detector, Filter
+from .modules import Detector, Filter, detection_reason
 from .observer import Change, Subject
 from .parametrizable import Parametrizable
 
@@ -36,6 +36,9 @@ class PipelineResult:
     detector_inputs: dict[str, Any] = field(default_factory=dict)
     #: Each detector of the frame's pipeline and how many objects it found (why a frame is empty, per detector).
     found: list[tuple[Any, int]] = field(default_factory=list)
+    #: Per detector id, why it found nothing in this frame (its result's ``reason``); None where it found
+    #: objects or gives no reason. Carried with the frame's result, never read back from the detector.
+    reasons: dict[str, str | None] = field(default_factory=dict)
 
 
 class RecognitionSystem(Subject):
@@ -199,6 +202,7 @@ class RecognitionSystem(Subject):
         modules = self._modules
         objects: list[Any] = []
         counts: list[tuple[Any, int]] = []
+        reasons: dict[str, str | None] = {}
         if not keep_stages:
             for m in modules:
                 if isinstance(m, Filter):
@@ -207,7 +211,8 @@ class RecognitionSystem(Subject):
                     found = m.detect(data)
                     objects.extend(found)
                     counts.append((m, len(found)))
-            return PipelineResult(objects, found=counts)
+                    reasons[m.id] = detection_reason(m, found)
+            return PipelineResult(objects, found=counts, reasons=reasons)
         stages = [Stage("input", "input", "input", data)]
         inputs: dict[str, Any] = {}
         for m in modules:
@@ -219,5 +224,6 @@ class RecognitionSystem(Subject):
                 inputs[m.id] = data
                 objects.extend(found)
                 counts.append((m, len(found)))
+                reasons[m.id] = detection_reason(m, found)
                 stages.append(Stage(m.id, m.type_name, "detector", data, found, m.render_debug(data, found)))
-        return PipelineResult(objects, stages, inputs, counts)
+        return PipelineResult(objects, stages, inputs, counts, reasons)

@@ -5,9 +5,9 @@ each chooses its topics and turns messages into its frames. Spec: ``bag:PATH[,to
 rate=R]``, or the plain path of a ``.bag``/``.mcap`` file or a ROS 2 bag folder (then with the defaults).
 
 - ``start``/``end``: seconds into the recording (from its first message, any topic), as ``rosbag play -s``
-  counts them; ``end=0`` reads to the end.
+  counts them; without ``end`` it reads to the end (the old ``end=0`` still does).
 - ``rate``: the replay pace against the recorded log times: 1 as recorded, 2 twice as fast, 0.5 half as fast;
-  0 (the default) reads as fast as frames are asked for, which is what a batch run wants.
+  without it (the default) frames are read as fast as they are asked for, which is what a batch run wants.
 - Each frame carries the message's header stamp (its log time where the header stamp is zero) and frame_id.
 """
 
@@ -49,9 +49,10 @@ class BagSource(FrameSource):
         "path": Str("", "the recording: a .bag or .mcap file, or a ROS 2 bag folder"),
         "topic": Str("", "the topic to read (default: the only one this kind can read)"),
         "start": Float(0.0, "seconds into the recording to start at", min=0.0),
-        "end": Float(0.0, "seconds into the recording to stop before (0: its end)", min=0.0),
-        "rate": Float(0.0, "replay pace: 1 as recorded, 2 twice as fast; 0 as fast as frames are read",
-                      min=0.0, max=1000.0),
+        "end": Float(None, "seconds into the recording to stop before (none: its end)", min=0.0, min_open=True,
+                     optional=True, deprecated={0.0: None}),
+        "rate": Float(None, "replay pace: 1 as recorded, 2 twice as fast; none: as fast as frames are read",
+                      min=0.0, min_open=True, max=1000.0, optional=True, deprecated={0.0: None}),
     }
     positional = ("path",)
     #: What this kind calls the topics it reads, for messages ("image", "point-cloud").
@@ -73,9 +74,11 @@ class BagSource(FrameSource):
             raise SourceError(f"{spec.text}: no recording given (bag:PATH[,topic=NAME,start=S,end=S,rate=R])")
         return str(options["path"])
 
-    def __init__(self, path: str | Path, *, topic: str = "", start: float = 0.0, end: float = 0.0,
-                 rate: float = 0.0, name: str | None = None) -> None:
+    def __init__(self, path: str | Path, *, topic: str = "", start: float = 0.0, end: float | None = None,
+                 rate: float | None = None, name: str | None = None) -> None:
         self.name = name or str(path)
+        end = end or 0.0  # none (or the old 0): to the end of the recording
+        rate = rate or 0.0  # none (or the old 0): as fast as frames are asked for
         if start < 0 or end < 0 or rate < 0:
             raise SourceError(f"{self.name}: start, end and rate must not be negative")
         if end and end <= start:

@@ -2,8 +2,10 @@
 
 A ``.rrd`` file (its missing folders made), or a viewer started here (or already listening) on a local port.
 rerun-sdk is imported only when a recording is opened, so importing this needs no extra; every failure is a
-:class:`RerunUnavailable` with one line for the user. It imports nothing of the project, so objrec-detect and
-the navigation stack's objrec-patrol share it without depending on each other.
+:class:`RerunUnavailable` with one line for the user. :class:`Recorder` (:mod:`rerunio.recorder`) is the base
+of every recorder: timelines, write failures noticed while recording, one close. It imports nothing of the
+project but the floor (strictio), so objrec-detect and the navigation stack's objrec-patrol share it without
+depending on each other.
 """
 
 from __future__ import annotations
@@ -20,9 +22,12 @@ import time
 from pathlib import Path
 from typing import Any
 
+from .recorder import CHECK_EVERY, Recorder
+
 log = logging.getLogger(__name__)
 
-__all__ = ["INSTALL_HINT", "VIEWER_PORT", "RerunUnavailable", "import_rerun", "open_stream", "spawn_viewer"]
+__all__ = ["CHECK_EVERY", "INSTALL_HINT", "VIEWER_PORT", "Recorder", "RerunUnavailable", "import_rerun", "open_stream",
+           "spawn_viewer"]
 
 INSTALL_HINT = "install objrec[viz] (pip install 'objrec[viz]')"
 #: The port ``rerun`` listens on by default; ``spawn`` starts (or reuses) a viewer there.

@@ -2,7 +2,7 @@
 # One entry point for a fresh Debian/Ubuntu machine: installs what objrec needs (once; a second run is
 # fast), then runs the demo or the test suite.
 #   bash scripts/objrec.sh demo   # set up, then detect objects in the built-in demo scene
-#   bash scripts/objrec.sh test   # set up, then run the whole test suite
+#   bash scripts/objrec.sh test   # set up, then ruff check and the whole test suite (doc snippets included)
 #   bash scripts/objrec.sh setup  # set up only
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -83,6 +83,9 @@ case "${1:-}" in
     setup
     shift
     export QT_QPA_PLATFORM=offscreen
+    # Lint first: a finding fails the command before the (long) suite runs, in CI as on a developer's machine.
+    say "ruff check ."
+    "$VENV/bin/ruff" check . || { say "ruff check found problems (above): fix them, then run again"; exit 1; }
     exec "$VENV/bin/python" -m pytest "$@" ;;
   *)
     echo "usage: bash scripts/objrec.sh demo|test|setup" >&2

@@ -18,20 +18,13 @@ from dataclasses import dataclass
 from typing import Any, NoReturn
 
 from .limits import ALL_LIMITS
+from .shown import printable
 
 #: Exit code for a mistake in what the user asked for.
 USAGE_ERROR = 2
 
-#: Control characters shown escaped, so that a value can neither split an error line nor fake output.
-_CONTROL = {i: f"\\x{i:02x}" for i in (*range(0x20), 0x7F)} | {0x0A: "\\n", 0x0D: "\\r", 0x09: "\\t"}
-#: How much of a user's text a message quotes.
+#: How much of a user's number a message quotes.
 _SHOWN = 40
-
-
-def printable(text: object, limit: int = _SHOWN) -> str:
-    """Text from the user as a message shows it: control characters escaped, never longer than ``limit``."""
-    shown = str(text).translate(_CONTROL)
-    return shown if len(shown) <= limit else shown[: limit - 3] + "..."
 
 
 def _bound(value: float) -> str:
@@ -78,7 +71,7 @@ class Number:
     def parse(self, text: str) -> float | int:
         """The number ``text`` stands for, or NumberError saying why it is not allowed."""
         stripped = text.strip()
-        shown = printable(stripped)
+        shown = printable(stripped, _SHOWN)
         if _INTEGER.fullmatch(stripped):
             value: float | int = int(stripped)
         elif _DECIMAL.fullmatch(stripped):
@@ -86,7 +79,7 @@ class Number:
         elif stripped.lower().lstrip("+-") in _NOT_FINITE:
             raise NumberError(f"{shown} is not a finite number")
         else:
-            raise NumberError(f"'{printable(text)}' is not {'a whole number' if self.whole else 'a number'}")
+            raise NumberError(f"'{printable(text, _SHOWN)}' is not {'a whole number' if self.whole else 'a number'}")
         if self.whole and isinstance(value, float) and math.isfinite(value) and not value.is_integer():
             raise NumberError(f"{shown} is not a whole number")
         self._check_range(value, shown)

@@ -3,6 +3,10 @@
 ``yaml.safe_load`` already refuses tags that build Python objects; this reader also refuses aliases (an
 alias bomb turns kilobytes into gigabytes), duplicate keys (the first would silently lose) and nesting past
 a depth (Python would hit its recursion limit), and reads through :func:`open_input`.
+
+It also records where each key and list item stands (:func:`yaml_text_with_lines`), so a reader that finds
+a wrong value deep in a document can name its line; an integer too long to convert is refused naming its
+line and key path the same way.
 """
 
 from __future__ import annotations
@@ -31,8 +35,31 @@ class YAMLLimits:
     max_depth: int = 50
 
 
+#: The 1-based line of every key and list item of a document, by key path (``("objects", 2, "radius")``);
+#: the empty path is the document itself.
+KeyLines = dict[tuple[Any, ...], int]
+
+
+class YAMLInputError(InputError):
+    """A YAML document refused at a known place: ``line`` (1-based) and, where known, the ``key_path``."""
+
+    def __init__(self, path: str | os.PathLike[str], message: str, where: str, line: int,
+                 key_path: tuple[Any, ...] | None = None) -> None:
+        super().__init__(path, message, where)
+        self.line = line
+        self.key_path = key_path
+
+
 class _TooManyNodes(Exception):
     """Raised inside the loader; reported as a LimitError naming the file."""
+
+
+class _LongInteger(Exception):
+    """An integer scalar with more digits than Python converts, and where it stands."""
+
+    def __init__(self, digits: int, line: int, key_path: tuple[Any, ...] | None) -> None:
+        super().__init__(digits)
+        self.digits, self.line, self.key_path = digits, line, key_path
 
 
 class _StrictLoader(yaml.SafeLoader):
@@ -43,6 +70,8 @@ class _StrictLoader(yaml.SafeLoader):
         self._depth = 0
         self._nodes = 0
         self._max_nodes = YAML_NODES.value()
+        self.key_lines: KeyLines = {}
+        self._scalar_paths: dict[int, tuple[Any, ...]] = {}
 
     def compose_node(self, parent: Any, index: Any) -> Any:
         self._nodes += 1
@@ -77,26 +106,70 @@ class _StrictLoader(yaml.SafeLoader):
             seen.add(key)
         return super().construct_mapping(node, deep)
 
+    def construct_document(self, node: Any) -> Any:
+        """Record the line of every key and list item (walking without recursion), then build the data."""
+        stack: list[tuple[Any, tuple[Any, ...]]] = [(node, ())]
+        self.key_lines[()] = node.start_mark.line + 1
+        while stack:
+            current, path = stack.pop()
+            if isinstance(current, yaml.MappingNode):
+                for key_node, value_node in current.value:
+                    if not isinstance(key_node, yaml.ScalarNode):
+                        continue  # a collection as a key: the base class refuses it
+                    key = self.construct_object(key_node, deep=True)  # 0: is the int 0, as the data has it
+                    child = (*path, key)
+                    self.key_lines.setdefault(child, key_node.start_mark.line + 1)
+                    stack.append((value_node, child))
+            elif isinstance(current, yaml.SequenceNode):
+                for index, item in enumerate(current.value):
+                    self.key_lines.setdefault((*path, index), item.start_mark.line + 1)
+                    stack.append((item, (*path, index)))
+            else:
+                self._scalar_paths[id(current)] = path
+        return super().construct_document(node)
+
+    def construct_yaml_int(self, node: Any) -> Any:
+        try:
+            return super().construct_yaml_int(node)
+        except ValueError:  # more digits than Python converts (sys.get_int_max_str_digits)
+            digits = sum(c.isdigit() for c in str(node.value))
+            raise _LongInteger(digits, node.start_mark.line + 1, self._scalar_paths.get(id(node))) from None
+
+
+_StrictLoader.add_constructor("tag:yaml.org,2002:int", _StrictLoader.construct_yaml_int)
+
 
 def yaml_text(text: str, path: str | os.PathLike[str] = "<text>", limits: YAMLLimits | None = None) -> Any:
     """Parse YAML text with the strict dialect; errors are InputError naming ``path``, line and column."""
+    return yaml_text_with_lines(text, path, limits)[0]
+
+
+def yaml_text_with_lines(text: str, path: str | os.PathLike[str] = "<text>",
+                         limits: YAMLLimits | None = None) -> tuple[Any, KeyLines]:
+    """Like :func:`yaml_text`, with the line of every key and list item; errors at a known place are
+    :class:`YAMLInputError` carrying the line."""
     limits = limits or YAMLLimits()
     loader_class = type("_Loader", (_StrictLoader,), {"max_depth": limits.max_depth})
     loader = None
     try:
         loader = loader_class(text)  # refuses control characters at once
-        return loader.get_single_data()
+        return loader.get_single_data(), loader.key_lines
+    except _LongInteger as exc:
+        raise YAMLInputError(path, f"not valid YAML: an integer of {exc.digits:,} digits is not a usable number",
+                             f"line {exc.line}", exc.line, exc.key_path) from None
     except RecursionError:
         raise InputError(path, "not valid YAML: nested too deeply") from None
     except _TooManyNodes as exc:
         raise LimitError(path, YAML_NODES, int(str(exc)), "YAML values and collections, at least") from None
     except yaml.MarkedYAMLError as exc:
         mark = exc.problem_mark or exc.context_mark
-        where = f"line {mark.line + 1}, column {mark.column + 1}" if mark else ""
         problem = exc.problem or str(exc)
         if "could not determine a constructor" in str(exc):
             problem = f"{problem} (tags that build Python objects are not allowed)"
-        raise InputError(path, f"not valid YAML: {problem}", where) from None
+        if mark is None:
+            raise InputError(path, f"not valid YAML: {problem}") from None
+        where = f"line {mark.line + 1}, column {mark.column + 1}"
+        raise YAMLInputError(path, f"not valid YAML: {problem}", where, mark.line + 1) from None
     except yaml.reader.ReaderError as exc:
         raise InputError(path, f"not valid YAML: character #x{exc.character:04x} at position {exc.position} is "
                                "not allowed (control characters)") from None
@@ -116,3 +189,9 @@ def read_yaml(path: str | os.PathLike[str], limits: YAMLLimits | None = None) ->
     """Read one YAML document from a regular file of bounded size, with the strict dialect."""
     limits = limits or YAMLLimits()
     return yaml_text(read_text(path, limits.max_bytes), path, limits)
+
+
+def read_yaml_with_lines(path: str | os.PathLike[str], limits: YAMLLimits | None = None) -> tuple[Any, KeyLines]:
+    """Like :func:`read_yaml`, with the line of every key and list item (:func:`yaml_text_with_lines`)."""
+    limits = limits or YAMLLimits()
+    return yaml_text_with_lines(read_text(path, limits.max_bytes), path, limits)

@@ -11,8 +11,9 @@ from pathlib import Path
 from types import ModuleType
 
 import numpy as np
+import pytest
 
-from objrec_core.testing import check_module
+from objrec_core.testing import cases, check_module, pytest_params, run_case
 
 HERE = Path(__file__).resolve().parent
 
@@ -41,3 +42,10 @@ def test_invert_filter_conforms():
     repr, snapshots across threads and change events."""
     report = check_module(load_example().InvertFilter)
     assert report.refused >= 15 and report.boundaries == 4 and report.frames >= 6
+
+
+@pytest.mark.parametrize("case", pytest_params(cases(load_example().InvertFilter)))
+def test_invert_filter_case(case):
+    """The same checks one by one, each its own pytest case (``InvertFilter::boundaries``), as a plug-in's
+    suite lists them: a failure names the promise broken."""
+    run_case(case)

@@ -1,8 +1,10 @@
 """The FeatureDetector's own panel (registered through the panel hook): the generated parameters plus
-the target: a thumbnail, its size and keypoints, why the last frame found nothing, and Clear target.
+the target: a thumbnail, its size and keypoints, why the frame on screen found nothing, and Clear target.
 
-It reads the detector by duck typing (``target``, ``last_reason``, ``clear_target``), so it keeps working
-if the detector grows, and shows the generated panel's content alone where these are missing.
+It reads the detector by duck typing (``target``, ``clear_target``), so it keeps working if the detector
+grows, and shows the generated panel's content alone where these are missing. What the frame on screen gave
+comes from that frame's results (``show_results``, fed by the panel column), never from the detector: a
+worker may be running it on a newer frame meanwhile, and it keeps no per-frame state.
 """
 
 from __future__ import annotations
@@ -16,7 +18,7 @@ from PySide6.QtCore import Qt, QTimer
 from PySide6.QtGui import QPixmap
 from PySide6.QtWidgets import QGroupBox, QLabel, QPushButton, QVBoxLayout, QWidget
 
-from objrec_core import Change, Parametrizable
+from objrec_core import Change, Parametrizable, StageResults
 
 from .images import ImageBuffer
 from .panels import ParameterPanel, register_panel
@@ -35,6 +37,23 @@ def target_picture(target: Any) -> np.ndarray | None:
     if roi is not None:
         cv2.rectangle(picture, (roi.x, roi.y), (roi.x + roi.width - 1, roi.y + roi.height - 1), (0, 255, 255), 1)
     return picture
+
+
+def frame_status(module_id: str, results: StageResults | None) -> str:
+    """The status line for the detector ``module_id`` in the frame ``results`` (empty before it has seen
+    one): found, with the inlier count its details carry, or the reason its result carries."""
+    stage = next((s for s in results.stages if s.id == module_id and s.role == "detector"), None) if results else None
+    if stage is None:
+        return ""
+    objects = stage.objects
+    if not objects:
+        return f"Last frame: {getattr(objects, 'reason', None) or 'nothing found'}"
+    details = getattr(objects, "details", None)
+    attempt = details[0] if isinstance(details, tuple) and details else None
+    inliers = getattr(attempt, "inlier_count", None)
+    found = f"found {len(objects)} copies" if len(objects) > 1 else "found"
+    best = "the first with " if len(objects) > 1 else ""
+    return f"Last frame: {found}" + (f" ({best}{inliers} inliers)" if inliers is not None else "")
 
 
 class FeatureDetectorPanel(ParameterPanel):
@@ -57,6 +76,7 @@ class FeatureDetectorPanel(ParameterPanel):
         box.addWidget(self.clear_button, 0, Qt.AlignmentFlag.AlignRight)
         self._shown_target: Any = None
         self._thumbnail_buffer: ImageBuffer | None = None
+        self._results: StageResults | None = None
         super().__init__(module, parent)
         self.layout().insertWidget(0, self.target_box)
         self.clear_button.clicked.connect(self._clear)
@@ -95,17 +115,14 @@ class FeatureDetectorPanel(ParameterPanel):
         self.info.setText(f"{rect.width}×{rect.height} px selected at ({rect.x}, {rect.y}) · "
                           f"{len(target)} {kind} keypoints")
 
+    def show_results(self, results: StageResults) -> None:
+        """Keep the results of the frame now on screen; the status line shows them at its next poll."""
+        self._results = results
+
     def show_status(self) -> None:
         if not self.isVisible():
             return
-        reason = getattr(self.module, "last_reason", None)
-        status = getattr(self.module, "last_status", None)
-        if status is None:
-            self.status.setText("")
-        elif reason is None:
-            self.status.setText("Last frame: found")
-        else:
-            self.status.setText(f"Last frame: {reason}")
+        self.status.setText(frame_status(self.module.id, self._results))
         self.show_target()  # a recompute after a parameter change replaces the target without notifying
 
     def _clear(self) -> None:

@@ -412,7 +412,8 @@ class DefinitionGUI(QMainWindow):
         self.last_shown_generation = shown.generation
         self.frame_rate.tick(time.perf_counter())
         self.source_bar.set_rates(self.frame_rate.rate(), results.seconds * 1000, self.worker.dropped)
-        self.message_area.show_detectors(detector_reasons(self.system, results))
+        self.message_area.show_detectors(detector_reasons(results))
+        self.panels.show_results(results)
         self.frameShown.emit(shown)
 
     @property

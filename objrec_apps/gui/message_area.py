@@ -3,7 +3,7 @@
 The status bar cuts a long message at its width and the next message (or a hover read-out) replaces it, so
 a refusal such as a parameter's full rule was lost. Here the last ``keep`` messages stay, each with its full
 text and time, errors marked; a line above them says, per detector, what it found in the frame on screen or
-why it found nothing (a detector's ``last_reason`` where it keeps one). Errors of opening or saving a file
+why it found nothing (the reason that frame's result carries). Errors of opening or saving a file
 also come as a dialog, because the user is waiting for that answer.
 """
 
@@ -36,10 +36,10 @@ def is_file_error(text: str) -> bool:
     return text.startswith(FILE_ERROR_PREFIXES)
 
 
-def detector_reasons(system: RecognitionSystem, results: StageResults) -> list[str]:
-    """One line per detector of the frame's results: how many objects it found, or why it found none (its
-    ``last_reason`` where it keeps one, else "no objects")."""
-    modules = {m.id: m for m in system.modules}
+def detector_reasons(results: StageResults) -> list[str]:
+    """One line per detector of the frame's results: how many objects it found, or why it found none (the
+    reason its result for that frame carries, else "no objects"). The reason is taken from the frame on
+    screen, never from the detector, which a worker may meanwhile be running on a newer frame."""
     lines = []
     for stage in results.stages:
         if stage.role != "detector":
@@ -48,7 +48,7 @@ def detector_reasons(system: RecognitionSystem, results: StageResults) -> list[s
         if found:
             lines.append(f"{stage.id}: {found} object{'s' if found != 1 else ''}")
             continue
-        reason = getattr(modules.get(stage.id), "last_reason", None)
+        reason = getattr(stage.objects, "reason", None)
         lines.append(f"{stage.id}: {reason or 'no objects'}")
     return lines
 

@@ -8,7 +8,7 @@ from typing import Any
 from PySide6.QtCore import Signal
 from PySide6.QtWidgets import QFormLayout, QLabel, QLineEdit, QVBoxLayout, QWidget
 
-from objrec_core import Change, Parametrizable, RecognitionSystem
+from objrec_core import Change, Parametrizable, RecognitionSystem, StageResults
 
 from .panels import create_panel
 
@@ -68,6 +68,15 @@ class PanelColumn(QWidget):
             if module.id == module_id:
                 return panel
         raise KeyError(f"no panel for module {module_id!r}")
+
+    def show_results(self, results: StageResults) -> None:
+        """Hand the results of the frame now on screen to every panel that shows per-frame information
+        (one with a ``show_results(results)`` method): what a detector found or why not is read from
+        there, never back from the detector."""
+        for _, panel in self._panels:
+            show = getattr(panel, "show_results", None)
+            if show is not None:
+                show(results)
 
     def _system_changed(self, changes: Sequence[Change]) -> None:
         names = {c.name for c in changes}

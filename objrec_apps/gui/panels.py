@@ -10,9 +10,7 @@ the module and returning a QWidget) so a plug-in package needs no change to objr
 from __future__ import annotations
 
 import logging
-import threading
 from collections.abc import Callable, Sequence
-from importlib.metadata import entry_points
 from typing import Any
 
 from PySide6.QtCore import Qt, Signal
@@ -27,6 +25,7 @@ from PySide6.QtWidgets import (
     QWidget,
 )
 
+from declare.registry import PluginError, Registry
 from objrec_core import Change, ParameterError, Parametrizable
 
 from .changes import opened_values
@@ -38,36 +37,38 @@ log = logging.getLogger(__name__)
 PANEL_GROUP = "objrec.gui_panels"
 PanelFactory = Callable[[Parametrizable], QWidget]
 
-_factories: dict[str, PanelFactory] = {}
-_lock = threading.Lock()
+
+def _valid_factory(name: str, obj: Any) -> PanelFactory:
+    if not callable(obj):
+        raise TypeError(f"{obj!r} is not a callable that makes a panel for a {name} module")
+    return obj
+
+
+#: Panels that replace the generated one, by module type: the same registry rules as every plug-in group
+#: (entry-point name as key, duplicates refused naming both distributions, lazy loading).
+PANELS: Registry[PanelFactory] = Registry(PANEL_GROUP, "parameter panel", validate=_valid_factory)
 
 
 def register_panel(type_name: str, factory: PanelFactory) -> None:
     """Use ``factory(module)`` instead of the generated panel for modules of this type (or subclasses)."""
-    with _lock:
-        _factories[type_name] = factory
+    PANELS.register(factory, type_name)
 
 
 def unregister_panel(type_name: str) -> None:
-    with _lock:
-        _factories.pop(type_name, None)
+    PANELS.unregister(type_name)
 
 
 def panel_factory(module: Parametrizable) -> PanelFactory:
     """The registered factory for the module's type or nearest base class; else the generated panel."""
     names = [module.type_name] + [k.__name__ for k in type(module).__mro__]
-    with _lock:
-        for name in names:
-            if name in _factories:
-                return _factories[name]
-    plugins = {ep.name: ep for ep in entry_points(group=PANEL_GROUP)}
     for name in names:
-        if name in plugins:
-            try:
-                return plugins[name].load()
-            except Exception:  # a broken plug-in panel must not cost the user the generated one
-                log.exception("panel plug-in %s cannot be loaded; using the generated panel", plugins[name].value)
-                break
+        if name not in PANELS:
+            continue
+        try:
+            return PANELS.get(name)
+        except PluginError as exc:  # a broken plug-in panel must not cost the user the generated one
+            log.warning("%s; using the generated panel", exc)
+            break
     return ParameterPanel
 
 

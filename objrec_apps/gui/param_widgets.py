@@ -8,6 +8,12 @@ A number gets a slider over its soft range (``spec.slider_range``) and a spin bo
 slider is for tuning within the usual values, the spin box for any value the declaration allows, stored as
 typed (an Int with an enforced step takes the nearest allowed value). A value past the soft range pins the
 slider at that end.
+
+Which editor a declaration gets is a registry keyed by parameter class, looked up along the class's MRO
+(as magicgui registers widgets by type): ``register_editor(Colour, ColourEditor)`` in a plug-in gives its
+parameter type an editor, and a subclass of ``Int`` gets ``Int``'s editor unless it registers its own. The
+built-in editors are registered the same way, at the end of this module. An optional parameter's editor is
+wrapped in ``OptionalEditor``: a "none" check box beside it.
 """
 
 from __future__ import annotations
@@ -89,20 +95,28 @@ class Throttle(QObject):
 
 
 class ParameterEditor(QWidget):
-    """Base of the editors: knows its declaration, emits the user's edits."""
+    """Base of the editors: knows its declaration, emits the user's edits.
+
+    A plug-in's editor subclasses this, builds its widgets in ``__init__``, implements ``show_value`` and
+    calls ``_emit(value)`` when the user edits; ``tooltip_details`` adds lines to the tooltip.
+    """
 
     edited = Signal(str, object)
 
     def __init__(self, spec: Parameter, parent: QWidget | None = None) -> None:
         super().__init__(parent)
         self.spec = spec
-        self.setToolTip(tooltip(spec))
+        self.setToolTip(tooltip(spec, self.tooltip_details()))
         layout = QHBoxLayout(self)
         layout.setContentsMargins(0, 0, 0, 0)
 
     def show_value(self, value: Any) -> None:
         """Display ``value`` without emitting ``edited``."""
         raise NotImplementedError
+
+    def tooltip_details(self) -> list[str]:
+        """Lines this kind of editor adds to the tooltip (called before the editor's own widgets exist)."""
+        return []
 
     def _emit(self, value: Any) -> None:
         self.edited.emit(self.spec.name, value)
@@ -112,17 +126,11 @@ def _number_text(value: float) -> str:
     return str(value) if isinstance(value, int) else f"{value:g}"
 
 
-def tooltip(spec: Parameter) -> str:
-    """The declaration's description, its allowed values, the slider's range where narrower, and when the
-    parameter matters."""
-    lines = [spec.doc or spec.name, f"{spec.name}: {spec.describe()}, default {spec.default!r}"]
-    if isinstance(spec, Int | Float):
-        soft = spec.slider_range
-        if soft is not None and (soft[0] != spec.min or soft[1] != spec.max):
-            lines.append(f"the slider covers {_number_text(soft[0])}..{_number_text(soft[1])}; type a value "
-                         "beyond it into the box")
-    if isinstance(spec, Choice) and spec.unavailable:
-        lines.append("not available here: " + "; ".join(f"{c} ({why})" for c, why in spec.unavailable.items()))
+def tooltip(spec: Parameter, details: list[str] | tuple[str, ...] = ()) -> str:
+    """The declaration's description, its allowed values, what the editor adds (the slider's range where
+    narrower, choices not available here), and when the parameter matters."""
+    default = "none" if spec.default is None else repr(spec.default)
+    lines = [spec.doc or spec.name, f"{spec.name}: {spec.describe()}, default {default}", *details]
     relevance = spec.relevance_text()
     if relevance:
         lines.append(f"matters {relevance}")
@@ -183,6 +191,9 @@ class NumberEditor(ParameterEditor):
         self.is_int = isinstance(spec, Int)
         self.step = spin_step(spec)
         self.decimals = 0 if self.is_int else float_decimals(spec, self.step)
+        #: The lowest and highest values the spin box offers: the hard bounds, an open one moved inside by
+        #: the smallest amount the box can show.
+        self.lowest, self.highest = self._inside_bounds(spec)
         self.slider: QSlider | None = None
         self.slider_low = self.slider_high = self.slider_step = self._origin = 0.0
         self._first = self._inner = 0
@@ -190,20 +201,35 @@ class NumberEditor(ParameterEditor):
         self.throttle = Throttle(self._emit, parent=self)
         if self.is_int:
             spin: QSpinBox | QDoubleSpinBox = QSpinBox()
-            spin.setRange(max(int(spec.min), -INT_LIMIT) if spec.min is not None else -INT_LIMIT,
-                          min(int(spec.max), INT_LIMIT) if spec.max is not None else INT_LIMIT)
+            spin.setRange(max(int(self.lowest), -INT_LIMIT), min(int(self.highest), INT_LIMIT))
             spin.setSingleStep(int(self.step))
         else:
             spin = QDoubleSpinBox()
             spin.setDecimals(self.decimals)
-            spin.setRange(spec.min if spec.min is not None else -FLOAT_LIMIT,
-                          spec.max if spec.max is not None else FLOAT_LIMIT)
+            spin.setRange(self.lowest, self.highest)
             spin.setSingleStep(self.step)
         spin.setKeyboardTracking(False)  # typing "120" sends 120, not 1, 12 and 120
         spin.setMinimumWidth(80)
         spin.valueChanged.connect(self._spin_changed)
         self.spin = spin
         self.layout().addWidget(spin)
+
+    def tooltip_details(self) -> list[str]:
+        spec = self.spec
+        soft = spec.slider_range
+        if soft is not None and (soft[0] != spec.min or soft[1] != spec.max):
+            return [f"the slider covers {_number_text(soft[0])}..{_number_text(soft[1])}; type a value beyond it "
+                    "into the box"]
+        return []
+
+    def _inside_bounds(self, spec: Int | Float) -> tuple[float, float]:
+        """The spin box's range: the hard bounds (else the widest it holds), an excluded one moved inside by
+        one (Int) or by the last decimal shown (Float)."""
+        limit = INT_LIMIT if self.is_int else FLOAT_LIMIT
+        nudge = 1 if self.is_int else 10.0 ** -self.decimals
+        low = -limit if spec.min is None else spec.min + (nudge if spec.min_open else 0)
+        high = limit if spec.max is None else spec.max - (nudge if spec.max_open else 0)
+        return low, high
 
     def _make_slider(self, spec: Int | Float) -> None:
         """The slider's positions: the soft minimum, the multiples of the step strictly inside the soft range
@@ -212,10 +238,10 @@ class NumberEditor(ParameterEditor):
         soft = spec.slider_range
         if soft is None:
             return
-        low, high = float(soft[0]), float(soft[1])
+        low, high = max(float(soft[0]), self.lowest), min(float(soft[1]), self.highest)
         if self.is_int:
             enforced = spec.enforced_step or 1
-            origin = float(spec.min if spec.min is not None and spec.enforced_step else 0)
+            origin = float(spec.step_origin if spec.enforced_step else 0)
             if spec.enforced_step:  # the ends themselves must be allowed values
                 low = origin + math.ceil((low - origin) / enforced) * enforced
                 high = origin + math.floor((high - origin) / enforced) * enforced
@@ -267,10 +293,12 @@ class NumberEditor(ParameterEditor):
         value = round(value)
         step = self.spec.enforced_step
         if step:
-            base = self.spec.min if self.spec.min is not None else 0
+            base = self.spec.step_origin
             value = base + round((value - base) / step) * step
-            if self.spec.max is not None and value > self.spec.max:
+            if self.spec.above_max(value):
                 value -= step
+            if self.spec.below_min(value):
+                value += step
         return int(value)
 
     def show_value(self, value: Any) -> None:
@@ -325,6 +353,10 @@ class ChoiceEditor(ParameterEditor):
         with QSignalBlocker(self.combo):
             self.combo.setCurrentText(str(value))
 
+    def tooltip_details(self) -> list[str]:
+        missing = self.spec.unavailable
+        return ["not available here: " + "; ".join(f"{c} ({why})" for c, why in missing.items())] if missing else []
+
 
 class TextEditor(ParameterEditor):
     def __init__(self, spec: Str, parent: QWidget | None = None) -> None:
@@ -350,14 +382,79 @@ class ReadOnlyEditor(ParameterEditor):
         self.label.setText(repr(value))
 
 
+class OptionalEditor(ParameterEditor):
+    """An optional parameter's editor with a "none" check box beside it: checked, the value is None and the
+    inner editor is disabled (it keeps the last value, which unchecking sends again)."""
+
+    def __init__(self, spec: Parameter, inner: ParameterEditor, parent: QWidget | None = None) -> None:
+        super().__init__(spec, parent)
+        self.inner = inner
+        self.setToolTip(inner.toolTip())
+        self.none = QCheckBox("none")
+        self.none.setToolTip(f"no value: {spec.doc or spec.name}")
+        self._last: Any = spec.example()
+        inner.show_value(self._last)
+        inner.edited.connect(self._inner_edited)
+        self.none.toggled.connect(self._none_toggled)
+        self.layout().addWidget(inner, 1)
+        self.layout().addWidget(self.none)
+
+    def show_value(self, value: Any) -> None:
+        with QSignalBlocker(self.none):
+            self.none.setChecked(value is None)
+        self.inner.setEnabled(value is not None)
+        if value is not None:
+            self._last = value
+            self.inner.show_value(value)
+
+    def _inner_edited(self, _name: str, value: Any) -> None:
+        self._last = value
+        self._emit(value)
+
+    def _none_toggled(self, checked: bool) -> None:
+        self.inner.setEnabled(not checked)
+        self._emit(None if checked else self._last)
+
+
+#: A factory makes the editor of one declaration: ``factory(spec, parent)``, usually the editor class.
+EditorFactory = Callable[[Any, "QWidget | None"], ParameterEditor]
+_editors: dict[type[Parameter], EditorFactory] = {}
+
+
+def register_editor(parameter_class: type[Parameter], factory: EditorFactory) -> None:
+    """Give ``parameter_class`` (and its subclasses, unless they have their own) the editor ``factory``.
+
+    Registering again replaces the earlier editor, so a plug-in may also restyle a built-in type.
+    """
+    if not (isinstance(parameter_class, type) and issubclass(parameter_class, Parameter)):
+        raise TypeError(f"register_editor: {parameter_class!r} is not a Parameter subclass")
+    if not callable(factory):
+        raise TypeError(f"register_editor: the editor of {parameter_class.__name__} is not callable")
+    _editors[parameter_class] = factory
+
+
+def unregister_editor(parameter_class: type[Parameter]) -> None:
+    """Forget ``parameter_class``'s editor (its subclasses fall back along the MRO)."""
+    _editors.pop(parameter_class, None)
+
+
+def editor_factory(spec: Parameter) -> EditorFactory:
+    """The registered factory nearest ``spec``'s class along its MRO; a read-only label for none."""
+    for klass in type(spec).__mro__:
+        factory = _editors.get(klass)
+        if factory is not None:
+            return factory
+    return ReadOnlyEditor
+
+
 def editor_for(spec: Parameter, parent: QWidget | None = None) -> ParameterEditor:
-    """The widget for a declaration: slider + spin box, check box, combo box or text field."""
-    if isinstance(spec, Int | Float):
-        return NumberEditor(spec, parent)
-    if isinstance(spec, Bool):
-        return BoolEditor(spec, parent)
-    if isinstance(spec, Choice):
-        return ChoiceEditor(spec, parent)
-    if isinstance(spec, Str):
-        return TextEditor(spec, parent)
-    return ReadOnlyEditor(spec, parent)
+    """The widget for a declaration, from the registry; an optional one gets a "none" check box too."""
+    editor = editor_factory(spec)(spec, None if spec.optional else parent)
+    return OptionalEditor(spec, editor, parent) if spec.optional else editor
+
+
+register_editor(Int, NumberEditor)
+register_editor(Float, NumberEditor)
+register_editor(Bool, BoolEditor)
+register_editor(Choice, ChoiceEditor)
+register_editor(Str, TextEditor)

@@ -11,14 +11,14 @@ from PySide6.QtCore import Signal
 from PySide6.QtGui import QAction, QKeySequence
 from PySide6.QtWidgets import QComboBox, QFileDialog, QLabel, QLineEdit, QPushButton, QSpinBox, QToolBar, QWidget
 
-from objrec_core import source_types, source_usage
+from objrec_core import source_entries, source_usage
 
 KINDS = ("demo", "camera", "file", "folder", "spec")
 
 
 def file_filter(kind: str | None) -> str:
     """The open dialog's filter: the extensions the source types of ``kind`` (None: of every kind) read."""
-    extensions = sorted({e for t in source_types(kind) for e in t.extensions})
+    extensions = sorted({e for t in source_entries(kind).values() for e in t.extensions})
     patterns = " ".join(f"*{e}" for e in extensions)
     what = f"Files {kind} sources read" if kind else "Files the installed sources read"
     return f"{what} ({patterns});;All files (*)" if patterns else "All files (*)"

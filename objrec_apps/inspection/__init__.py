@@ -2,10 +2,12 @@
 
 It composes the two halves of the project without either knowing the other: the patrol
 (:mod:`navigation`, which imports no ``objrec_*``) runs the mission's tasks through its task API, and the
-``detect`` task (:mod:`.detect_task`) feeds the simulated camera's frames to any parameter file through
-the kind contract. ``objrec-inspect`` (:mod:`objrec_apps.inspect`) is the command.
+``detect`` task (:mod:`.detect_task`) feeds the simulated camera's frames to any parameter file whose kind
+implements the app's optional kind protocol :class:`TakesRGBD`. ``objrec-inspect`` (:mod:`objrec_apps.inspect`)
+is the command.
 """
 
+from .camera_frames import NoCameraFrames, TakesRGBD, camera_frames
 from .mission import Expected, Mission, MissionError, load_mission
 from .session import Inspection, InspectionError, changed_world, open_inspection
 
@@ -15,6 +17,9 @@ __all__ = [
     "InspectionError",
     "Mission",
     "MissionError",
+    "NoCameraFrames",
+    "TakesRGBD",
+    "camera_frames",
     "changed_world",
     "load_mission",
     "open_inspection",

@@ -2,8 +2,8 @@
 
 It is registered with the patrol's task registry (:func:`navigation.tasks.register_task`) like any task
 of one's own; the navigation package itself knows nothing of recognition. Frames reach the parameter
-file's kind through the kind contract (``Kind.from_rgbd``), so a 2D file gets the colour image and a 3D
-file an organized point cloud, and each object found is placed in the map (:mod:`.locate`).
+file's kind through the app's optional kind protocol (:class:`.camera_frames.TakesRGBD`), so a 2D file gets the
+colour image and a 3D file an organized point cloud, and each object found is placed in the map (:mod:`.locate`).
 """
 
 from __future__ import annotations
@@ -12,9 +12,9 @@ import logging
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
-from navigation.tasks import REQUIRED, Capture, PoseTask, TaskContext, TaskOption, TaskSpecError, register_task
+from declare import Float
+from declare.fields import FilePath, Invalid
+from navigation.tasks import Capture, PoseTask, TaskContext, register_task
 from objrec_core import (
     Kind,
     ParameterFileError,
@@ -25,24 +25,26 @@ from objrec_core import (
     get_kind,
 )
 
+from .camera_frames import NoCameraFrames, TakesRGBD, camera_frames
 from .locate import Sighting, locate
 
 log = logging.getLogger(__name__)
 
 
 def _load(path: Path) -> tuple[RecognitionSystem, Kind]:
-    """The system of a parameter file, refused unless it detects something and its kind takes camera frames."""
+    """The system of a parameter file, refused unless it detects something and its kind takes camera frames
+    (:class:`Invalid` on ``params``: the task's reader reports it at the option's line and key path)."""
     try:
         system = build_system(path)
         kind = get_kind(system.kind) if system.kind else None
     except (ParameterFileError, UnknownModuleError) as exc:
-        raise TaskSpecError(f"detect: field 'params': {exc}") from None
+        raise Invalid(str(exc), "params") from None
     if kind is None or not system.detectors:
-        raise TaskSpecError(f"detect: field 'params': {path} has no detector, so nothing would be found")
-    probe = kind.from_rgbd(np.zeros((2, 2, 3), np.uint8), np.ones((2, 2), np.float32), 1.0, 1.0, 0.5, 0.5)
-    if probe is None:
-        raise TaskSpecError(f"detect: field 'params': {path} is of kind {kind.name!r}, which cannot take camera "
-                            "frames (its Kind has no from_rgbd)")
+        raise Invalid(f"{path} has no detector, so nothing would be found", "params")
+    try:
+        camera_frames(kind)
+    except NoCameraFrames as exc:
+        raise Invalid(f"{path}: {exc}", "params") from None
     return system, kind
 
 
@@ -54,9 +56,9 @@ class DetectTask(PoseTask):
     state = "DETECT"
     summary = "run an objrec parameter file on the camera frames taken here, place what it finds in the map"
     options = {  # noqa: RUF012 - declarations, never mutated
-        "params": TaskOption(REQUIRED, "the parameter file (made with objrec-define)", "path"),
-        "settle": TaskOption(0.3, "seconds to stand still before taking a frame when none was taken here",
-                             min=0.0, max=60.0),
+        "params": FilePath(required=True, doc="the parameter file (made with objrec-define)"),
+        "settle": Float(0.3, "seconds to stand still before taking a frame when none was taken here",
+                        min=0.0, max=60.0),
     }
     positional = "params"
 
@@ -79,10 +81,11 @@ class DetectTask(PoseTask):
     def _run(self, ctx: TaskContext, captures: list[Capture]) -> None:
         sightings: list[Sighting] = []
         kind, system = self.data_kind, self.system
+        camera: TakesRGBD = camera_frames(kind)
         try:
             for shot in captures:
                 f = shot.frame
-                result = system.process(kind.from_rgbd(f.color, f.depth, f.fx, f.fy, f.cx, f.cy))
+                result = system.process(camera.from_rgbd(f.color, f.depth, f.fx, f.fy, f.cx, f.cy))
                 sightings += locate(kind, system.object_array_type, list(result.objects), f, shot.pose,
                                     shot.label, shot.t)
         except PipelineError as exc:

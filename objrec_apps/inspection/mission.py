@@ -16,32 +16,64 @@ A YAML file, read through strictio; paths in it are relative to the file::
       1:
         expect: [{name: poster, label: poster, tolerance: 0.6}]
 
-Errors name the file and the field (``at.1.expect[0]: ...``), as every file error of the project does.
+The file is read against a table of declared fields (:data:`MISSION_FIELDS`), so errors name the file, the
+line and the key path (``mission.yaml:14: at.1.expect[0].tolerance: -1 is invalid: must be positive``), as
+every file error of the project does, down to a task's options (``at.0.tasks[1].wait.seconds``).
 """
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from navigation.poses import PoseFile, PoseFileError, load_poses
-from navigation.tasks import PoseTask, TaskSpecError, make_task
-from strictio import InputError, YAMLLimits, read_yaml
+from declare import Bool, Float, Int, Str
+from declare.fields import DocumentError, FilePath, Free, ListOf, MapOf, Place, Record, Value, not_blank, positive
+from declare.fields import read_document as read_yaml_document
+from navigation.poses import PoseFile, load_poses
+from navigation.tasks import PoseTask, make_task
+from strictio import YAMLLimits
 
 from . import detect_task  # noqa: F401 - registers the "detect" task with the patrol's registry
 
 #: A mission lists a few poses and tasks: a megabyte is plenty, and never a bomb.
 MISSION_LIMITS = YAMLLimits(max_bytes=1024 * 1024, max_depth=12)
-TOP_KEYS = ("poses", "first_pose", "laps", "stop_on_failure", "tolerance", "tasks", "at")
-POSE_KEYS = ("tasks", "expect")
-EXPECT_KEYS = ("name", "label", "tolerance")
 DEFAULT_TOLERANCE = 0.5
 
+#: A mission file that cannot be used: the one error of every file reader (file, line, key path, value, rule).
+MissionError = DocumentError
 
-class MissionError(ValueError):
-    """A mission file that cannot be used; the message names the file and the field."""
+
+class _Task(Free):
+    """One entry of a task list, built (and its options checked) by the patrol's task registry."""
+
+    def __init__(self) -> None:
+        super().__init__(required=True, what="a task name or a one-key mapping (task: options)")
+
+    def convert(self, value: Any, at: Place) -> PoseTask:
+        return make_task(value, at.document.folder, at)
+
+
+_TASKS = ListOf(_Task(), null_is_empty=True, default=None, doc="tasks done at the pose, in order")
+_DISTANCE = Float(DEFAULT_TOLERANCE, "metres", min=0.0, max=1e6)
+_EXPECT = Record({
+    "name": Value(Str("", "the object's name in the world file"), required=True, check=not_blank),
+    "label": Value(Str("", "the name detections give it (default: its name)"), default=None, check=not_blank),
+    "tolerance": Value(_DISTANCE, default=None, check=positive),
+}, shorthand="name")
+
+#: What a mission file holds; pose indices are checked against the pose file once it is read.
+MISSION_FIELDS = Record({
+    "poses": FilePath(required=True, doc="the goal-pose file"),
+    "first_pose": Int(0, "the pose the patrol starts at", min=0),
+    "laps": Int(1, "how many laps", min=1),
+    "stop_on_failure": Bool(False, "an aborted goal or task ends the mission"),
+    "tolerance": Value(_DISTANCE, check=positive),
+    "tasks": _TASKS,
+    "at": MapOf(Int(0, "a pose index", min=0),
+                Record({"tasks": _TASKS, "expect": ListOf(_EXPECT, null_is_empty=True)}, null_is_empty=True),
+                null_is_empty=True),
+})
 
 
 @dataclass(frozen=True)
@@ -67,104 +99,36 @@ class Mission:
     tolerance: float = DEFAULT_TOLERANCE
 
 
-class _Reader:
-    def __init__(self, path: Path) -> None:
-        self.path = path
-        self.base = path.parent
-
-    def fail(self, where: str, message: str) -> MissionError:
-        return MissionError(f"{self.path}: {where}: {message}" if where else f"{self.path}: {message}")
-
-    def keys(self, data: Any, allowed: tuple[str, ...], where: str) -> dict[Any, Any]:
-        if not isinstance(data, dict):
-            raise self.fail(where, f"expected a mapping, got {type(data).__name__}")
-        unknown = [str(k) for k in data if k not in allowed]
-        if unknown:
-            raise self.fail(where, f"unknown field(s) {', '.join(unknown)} (fields: {', '.join(allowed)})")
-        return data
-
-    def whole(self, value: Any, where: str, low: int) -> int:
-        if isinstance(value, bool) or not isinstance(value, int) or value < low:
-            raise self.fail(where, f"expected a whole number of at least {low}, got {value!r}")
-        return value
-
-    def distance(self, value: Any, where: str) -> float:
-        if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value) or value <= 0:
-            raise self.fail(where, f"expected a positive distance in metres, got {value!r}")
-        return float(value)
-
-    def tasks(self, items: Any, where: str) -> tuple[PoseTask, ...]:
-        if not isinstance(items, list):
-            raise self.fail(where, f"expected a list of tasks, got {type(items).__name__}")
-        built = []
-        for k, item in enumerate(items):
-            try:
-                built.append(make_task(item, self.base))
-            except TaskSpecError as exc:
-                raise self.fail(f"{where}[{k}]", str(exc)) from None
-        return tuple(built)
-
-    def expected(self, items: Any, where: str, tolerance: float) -> tuple[Expected, ...]:
-        if not isinstance(items, list):
-            raise self.fail(where, f"expected a list of object names, got {type(items).__name__}")
-        found: list[Expected] = []
-        for k, item in enumerate(items):
-            at = f"{where}[{k}]"
-            if isinstance(item, str):
-                item = {"name": item}
-            entry = self.keys(item, EXPECT_KEYS, at)
-            name = entry.get("name")
-            if not isinstance(name, str) or not name:
-                raise self.fail(f"{at}.name", f"expected an object name, got {name!r}")
-            label = entry.get("label", name)
-            if not isinstance(label, str) or not label:
-                raise self.fail(f"{at}.label", f"expected a detection name, got {label!r}")
-            tol = self.distance(entry["tolerance"], f"{at}.tolerance") if "tolerance" in entry else tolerance
-            if any(e.name == name for e in found):
-                raise self.fail(at, f"object {name!r} is expected twice at this pose")
-            found.append(Expected(name, label, tol, at))
-        return tuple(found)
+def _expected(items: tuple[dict[str, Any], ...], at: Place, tolerance: float) -> tuple[Expected, ...]:
+    found: list[Expected] = []
+    for k, item in enumerate(items):
+        name = item["name"]
+        if any(e.name == name for e in found):
+            raise at.item(k).fail(f"object {name!r} is expected twice at this pose")
+        tol = item["tolerance"] if item["tolerance"] is not None else tolerance
+        found.append(Expected(name, item["label"] or name, tol, at.item(k).shown))
+    return tuple(found)
 
 
 def load_mission(path: str | Path) -> Mission:
     """Read and check a mission file, its pose file and every task's options (parameter files included)."""
-    path = Path(path)
-    try:
-        data = read_yaml(path, MISSION_LIMITS)
-    except InputError as exc:
-        if exc.message == "file not found":
-            raise MissionError(f"{path}: mission file not found") from None
-        raise MissionError(str(exc)) from None
-    r = _Reader(path)
-    data = r.keys(data, TOP_KEYS, "")
-    if "poses" not in data or not isinstance(data["poses"], str):
-        raise r.fail("poses", f"required: the goal-pose file, got {data.get('poses')!r}")
-    poses_path = Path(data["poses"]).expanduser()
-    poses_path = poses_path if poses_path.is_absolute() else r.base / poses_path
-    try:
-        poses = load_poses(poses_path)
-    except PoseFileError as exc:
-        raise r.fail("poses", str(exc)) from None
+    document = read_yaml_document(path, MISSION_LIMITS, "mission")
+    root = document.root
+    data = MISSION_FIELDS.read(document.data, root)
+    poses_path: Path = data["poses"]
+    poses = load_poses(poses_path)
     n = len(poses.goals)
-    first = r.whole(data.get("first_pose", 0), "first_pose", 0)
+    first = data["first_pose"]
     if first >= n:
-        raise r.fail("first_pose", f"{first} is not one of the {n} poses of {poses_path}")
-    laps = r.whole(data.get("laps", 1), "laps", 1)
-    stop = data.get("stop_on_failure", False)
-    if not isinstance(stop, bool):
-        raise r.fail("stop_on_failure", f"expected true or false, got {stop!r}")
-    tolerance = r.distance(data["tolerance"], "tolerance") if "tolerance" in data else DEFAULT_TOLERANCE
-    common = r.tasks(data.get("tasks", []), "tasks")
-    tasks: list[tuple[PoseTask, ...]] = [common] * n
+        raise root.key("first_pose").fail(f"not one of the {n} poses of {poses_path}", first)
+    tasks: list[tuple[PoseTask, ...]] = [data["tasks"] or ()] * n
     expected: list[tuple[Expected, ...]] = [()] * n
-    at = data.get("at") or {}
-    if not isinstance(at, dict):
-        raise r.fail("at", f"expected a mapping of pose index to tasks and expected objects, got {at!r}")
-    for index, entry in at.items():
-        if isinstance(index, bool) or not isinstance(index, int) or not 0 <= index < n:
-            raise r.fail(f"at.{index}", f"not a pose index: {poses_path} has poses 0 to {n - 1}")
-        entry = r.keys(entry or {}, POSE_KEYS, f"at.{index}")
-        if "tasks" in entry:
-            tasks[index] = r.tasks(entry["tasks"] or [], f"at.{index}.tasks")
-        expected[index] = r.expected(entry.get("expect") or [], f"at.{index}.expect", tolerance)
-    return Mission(path, poses_path, poses, tuple(tasks), tuple(expected), first, laps, stop, tolerance)
+    for index, entry in data["at"].items():
+        at = root.key("at").key(index)
+        if index >= n:
+            raise at.fail(f"not a pose index: {poses_path} has poses 0 to {n - 1}", index)
+        if entry["tasks"] is not None:
+            tasks[index] = entry["tasks"]
+        expected[index] = _expected(entry["expect"], at.key("expect"), data["tolerance"])
+    return Mission(document.path, poses_path, poses, tuple(tasks), tuple(expected), first, data["laps"],
+                   data["stop_on_failure"], data["tolerance"])

@@ -64,7 +64,7 @@ def test_bad_parameter_file_names_file_and_key(project_root, tmp_path):
     bad.write_text((project_root / "params" / "hsv_demo.yaml").read_text().replace("iterations: 1", "iterations: many"))
     result = run([str(bad), "--source", "demo"], project_root)
     assert result.returncode == 2
-    assert f"{bad}: pipeline[1].parameters.iterations: 'many' is invalid: expected an integer" in result.stderr
+    assert f"{bad}:21: pipeline[1].parameters.iterations: 'many' is invalid: expected an integer" in result.stderr
     assert "Traceback" not in result.stderr
 
 

@@ -16,7 +16,7 @@ import yaml
 from objrec2d import DemoScene, DetectedObject2D, ImageDetector, Polygon
 from objrec2d.feature_detector import FeatureDetector
 from objrec_apps import detect
-from objrec_core import DetectionDirector, Detector, build_system, open_source, register_module
+from objrec_core import DetectionDirector, build_system, open_source, register_module
 from objrec_core.directors import DetectorOutcome
 from objrec_core.explain import NO_REASON
 from objrec_core.registry import unregister_module
@@ -56,14 +56,14 @@ def reason_lines(stderr: str) -> list[str]:
 
 def expected_reasons(params: str | Path, source: str) -> list[tuple[int, str, str, str]]:
     """(frame, detector id, type, reason) for each detector that found nothing, read in this process from
-    the pipeline's stages and the detectors' own ``last_reason``: what --explain must write."""
+    the pipeline's stages and the reason each stage's result carries: what --explain must write."""
     system = build_system(params)
     expected = []
     for seq, frame in enumerate(open_source(source, system.kind)):
         stages = system.process(frame.data, keep_stages=True).stages
         for stage in stages:
             if stage.role == "detector" and not stage.objects:
-                reason = system.module(stage.id).last_reason
+                reason = getattr(stage.objects, "reason", None)
                 expected.append((seq, stage.id, stage.type_name, reason if reason is not None else NO_REASON))
     return expected
 
@@ -123,10 +123,15 @@ def test_shape_detector_reasons_when_its_window_is_empty(capsys, tmp_path):
     )
     expected = expected_reasons(params, "demo:frames=2")
     assert [(seq, detector) for seq, detector, *_ in expected] == [(0, "cylinder"), (1, "cylinder")]
-    from objrec3d import ShapeDetector
-
-    if ShapeDetector.last_reason is not Detector.last_reason:  # it gives reasons: its own, not the generic line
-        assert all(reason != NO_REASON for *_, reason in expected)
+    assert all(reason != NO_REASON for *_, reason in expected)  # it gives reasons: its own, not the generic line
+    # ... and they come with its results alone: detecting leaves nothing of the frame on the detector.
+    system = build_system(params)
+    detector = system.module("cylinder")
+    before = dict(vars(detector))
+    for frame in open_source("demo:frames=2", system.kind):
+        assert detector.detect(system.module("window").filter(frame.data)).reason
+    assert vars(detector).keys() == before.keys()
+    assert all(vars(detector)[name] is value for name, value in before.items())
     code, _out, err = run_main(capsys, str(params), "-s", "demo:frames=2", "--explain")
     assert code == 0, err
     assert reason_lines(err) == as_text(expected)  # its own reason where it gives one, else the generic line
@@ -134,7 +139,7 @@ def test_shape_detector_reasons_when_its_window_is_empty(capsys, tmp_path):
 
 # -- the generic parts, with tiny detectors of this test ---------------------------------------------------------
 class Quiet(ImageDetector):
-    """Finds nothing and gives no reason (the base class's ``last_reason``)."""
+    """Finds nothing and gives no reason (a plain list)."""
 
     def detect(self, frame):
         return []

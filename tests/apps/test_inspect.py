@@ -6,11 +6,8 @@ from __future__ import annotations
 import contextlib
 import json
 import math
-import os
 import signal
-import subprocess
 import sys
-import time
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -24,8 +21,9 @@ from objrec_apps.inspect import main
 from objrec_apps.inspection import InspectionError, load_mission, open_inspection
 from objrec_apps.inspection.detect_task import DetectTask
 from objrec_apps.inspection.mission import MissionError
-from objrec_core import Kind, get_kind, register_kind, register_module
+from objrec_core import get_kind, register_kind, register_module
 from objrec_core.registry import unregister_kind, unregister_module
+from tests.signal_steps import signal_during, signal_once_working
 
 ROOT = Path(__file__).resolve().parents[2]
 LAB = ROOT / "examples" / "inspection_lab"
@@ -35,22 +33,7 @@ BOX_TOLERANCE, POLYGON_TOLERANCE = 0.15, 0.3
 
 
 # -- the kind contract: camera frames ----------------------------------------------------------------------
-def test_a_kind_takes_no_camera_frames_unless_it_says_so():
-    class Bare(Kind):
-        name, title = "bare", "bare things"
-
-        def check_frame(self, data: object) -> None:
-            pass
-
-        def preview(self, data: object) -> object:
-            return data
-
-        def annotate(self, frame: object, objects: object) -> object:
-            return frame
-
-    assert Bare().from_rgbd(np.zeros((2, 2, 3), np.uint8), np.ones((2, 2), np.float32), 1, 1, 0.5, 0.5) is None
-
-
+# (a kind without camera frames: tests/apps/test_inspect_camera_frames.py, with the app's TakesRGBD protocol)
 def test_image_kind_takes_the_colour_image():
     color = np.random.default_rng(0).integers(0, 255, (4, 6, 3), dtype=np.uint8)
     image = get_kind("2d").from_rgbd(color, np.ones((4, 6), np.float32), 5.0, 5.0, 2.5, 1.5)
@@ -91,24 +74,26 @@ def write_mission(tmp_path: Path, text: str) -> Path:
 
 
 @pytest.mark.parametrize(("text", "message"), [
-    ("poses: poses.txt\nwhen: now\n", "mission.yaml: unknown field(s) when (fields: poses,"),
-    ("tasks: []\n", "mission.yaml: poses: required: the goal-pose file"),
-    ("poses: nowhere.txt\n", "mission.yaml: poses: "),
-    ("poses: poses.txt\nfirst_pose: 2\n", "mission.yaml: first_pose: 2 is not one of the 2 poses"),
-    ("poses: poses.txt\nlaps: 0\n", "mission.yaml: laps: expected a whole number of at least 1, got 0"),
-    ("poses: poses.txt\ntolerance: -1\n", "mission.yaml: tolerance: expected a positive distance"),
-    ("poses: poses.txt\nstop_on_failure: maybe\n", "mission.yaml: stop_on_failure: expected true or false"),
-    ("poses: poses.txt\ntasks: [dance]\n", "mission.yaml: tasks[0]: unknown task 'dance'"),
+    ("poses: poses.txt\nwhen: now\n", "mission.yaml:2: when: unknown key (allowed: poses, first_pose,"),
+    ("tasks: []\n", "mission.yaml:1: poses: missing (the goal-pose file)"),
+    ("poses: nowhere.txt\n", "nowhere.txt: pose file not found"),
+    ("poses: poses.txt\nfirst_pose: 2\n", "mission.yaml:2: first_pose: 2 is invalid: not one of the 2 poses"),
+    ("poses: poses.txt\nlaps: 0\n", "mission.yaml:2: laps: 0 is invalid: out of range, allowed int in 1..inf"),
+    ("poses: poses.txt\ntolerance: -1\n",
+     "mission.yaml:2: tolerance: -1 is invalid: out of range, allowed float in 0..1000000"),
+    ("poses: poses.txt\nstop_on_failure: maybe\n",
+     "mission.yaml:2: stop_on_failure: 'maybe' is invalid: expected true or false"),
+    ("poses: poses.txt\ntasks: [dance]\n", "mission.yaml:2: tasks[0]: 'dance' is invalid: unknown task (known: "),
     ("poses: poses.txt\ntasks: [{wait: {seconds: x}}]\n",
-     "mission.yaml: tasks[0]: wait: field 'seconds': expected a number"),
-    ("poses: poses.txt\nat: {5: {expect: [a]}}\n", "mission.yaml: at.5: not a pose index: "),
-    ("poses: poses.txt\nat: {1: {expect: [a, a]}}\n", "mission.yaml: at.1.expect[1]: object 'a' is expected twice"),
+     "mission.yaml:2: tasks[0].wait.seconds: 'x' is invalid: expected a number"),
+    ("poses: poses.txt\nat: {5: {expect: [a]}}\n", "mission.yaml:2: at.5: 5 is invalid: not a pose index: "),
+    ("poses: poses.txt\nat: {1: {expect: [a, a]}}\n", "mission.yaml:2: at.1.expect[1]: object 'a' is expected twice"),
     ("poses: poses.txt\nat: {1: {expect: [{name: a, size: 2}]}}\n",
-     "mission.yaml: at.1.expect[0]: unknown field(s) size"),
+     "mission.yaml:2: at.1.expect[0].size: unknown key (allowed: name, label, tolerance)"),
     ("poses: poses.txt\nat: {0: {tasks: [{detect: missing.yaml}]}}\n",
-     "mission.yaml: at.0.tasks[0]: detect: field 'params': "),
+     "mission.yaml:2: at.0.tasks[0].detect.params: "),
     ("poses: poses.txt\nat: {0: {tasks: [detect]}}\n",
-     "mission.yaml: at.0.tasks[0]: detect: field 'params': missing"),
+     "mission.yaml:2: at.0.tasks[0].detect.params: missing"),
     ("poses: [1, 2\n", "mission.yaml"),
 ])
 def test_mission_errors_name_the_file_and_the_field(tmp_path, text, message):
@@ -126,9 +111,10 @@ def test_a_mission_file_that_is_missing(tmp_path):
 def test_detect_refuses_files_that_cannot_take_camera_frames(tmp_path):
     no_detector = tmp_path / "filter_only.yaml"
     no_detector.write_text("format_version: 1\nobject_name: x\nkind: 2d\npipeline:\n- type: HSVFilter\n  id: f\n")
-    with pytest.raises(TaskSpecError, match="has no detector, so nothing would be found"):
+    with pytest.raises(TaskSpecError, match=r"^detect\.params: .*filter_only\.yaml has no detector, so nothing would"):
         make_task({"detect": str(no_detector)}, tmp_path)
-    with signal_kind(tmp_path) as params, pytest.raises(TaskSpecError, match="of kind 'signal', which cannot"):
+    signal = r"^detect\.params: .*signal\.yaml: .*kind 'signal'.* cannot take camera"
+    with signal_kind(tmp_path) as params, pytest.raises(TaskSpecError, match=signal):
         make_task({"detect": str(params)}, tmp_path)
     assert isinstance(make_task({"detect": "params/colour_2d.yaml"}, LAB), DetectTask)
 
@@ -277,22 +263,12 @@ def test_a_bad_world_file_names_the_file(tmp_path, capsys):
 def test_ctrl_c_ends_in_shutdown_with_the_report_so_far(tmp_path):
     """A real Ctrl-C while the robot looks around at its first pose (in real time, starting there)."""
     out = tmp_path / "out"
-    proc = subprocess.Popen([sys.executable, "-m", "objrec_apps.inspect", str(MISSION), "--map", str(MAP), "--world",
-                             str(WORLD), "--out", str(out), "--realtime", "--start", "2.8", "4.5", "2.59"],
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     events = out / "events.jsonl"
-    try:
-        deadline = time.monotonic() + 60.0
-        while time.monotonic() < deadline and "POSE_0_LOOK_AROUND" not in (events.read_text() if events.exists()
-                                                                            else ""):
-            time.sleep(0.05)
-        time.sleep(0.5)
-        proc.send_signal(signal.SIGINT)
-        stdout, stderr = proc.communicate(timeout=60.0)
-    finally:
-        if proc.poll() is None:
-            proc.kill()
-    assert proc.returncode == 0, stderr
+    code, stdout, stderr = signal_once_working(
+        [sys.executable, "-m", "objrec_apps.inspect", str(MISSION), "--map", str(MAP), "--world", str(WORLD),
+         "--out", str(out), "--realtime", "--start", "2.8", "4.5", "2.59"],
+        lambda: events.exists() and "POSE_0_LOOK_AROUND" in events.read_text(), signal.SIGINT, after=0.5)
+    assert code == 0, stderr
     assert "outcome:        shutdown (SIGINT)" in stdout
     report = json.loads((out / "report.json").read_text())
     assert report["summary"]["reason"] == "SIGINT" and report["outcome"] == "shutdown"
@@ -308,13 +284,7 @@ def test_ctrl_c_ends_in_shutdown_with_the_report_so_far(tmp_path):
 def test_ctrl_c_during_start_up_still_reports(tmp_path, capsys, monkeypatch):
     import objrec_apps.inspection.session as session
 
-    real = session.load_world
-
-    def interrupted(path):
-        os.kill(os.getpid(), signal.SIGINT)
-        return real(path)
-
-    monkeypatch.setattr(session, "load_world", interrupted)
+    signal_during(monkeypatch, session, "load_world", signal.SIGINT)
     out = tmp_path / "out"
     assert main([str(MISSION), "--map", str(MAP), "--world", str(WORLD), "--out", str(out)]) == 0
     assert "outcome:        shutdown (SIGINT)" in capsys.readouterr().out

@@ -18,17 +18,7 @@ from objrec_apps.rerun_log import box_pose, open_rerun, quaternion_xyzw  # noqa:
 from objrec_core import DetectionDirector, build_system, get_kind, open_source  # noqa: E402
 from rerunio import RerunUnavailable  # noqa: E402
 
-
-def _load_rrd_rows():
-    """The shared .rrd reader (tests/rrd_rows.py), loaded by path: tests run with --import-mode=importlib."""
-    path = Path(__file__).resolve().parents[1] / "rrd_rows.py"
-    spec = importlib.util.spec_from_file_location("rrd_rows", path)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
-
-
-read_recording = _load_rrd_rows().read_recording
+from ..rrd_rows import read_recording  # noqa: E402
 
 
 def record(project_root: Path, params: str, spec: str, out: Path, keep_stages: bool = True):

@@ -10,12 +10,9 @@ import errno
 import json
 import os
 import re
-import resource
-import signal
 import stat
 import subprocess
 import sys
-import time
 from pathlib import Path
 
 import cv2
@@ -29,39 +26,20 @@ from objrec_core import ParameterStorage, RecognitionSystem
 from objrec_core.schema import ParameterFileError, validate_document
 from objrec_core.storage import ParameterSaveError
 from strictio import OutputError
+from tests.hostile import harness
+from tests.hostile.harness import char_device, the_one_error_line
 
 DETECT = [sys.executable, "-m", "objrec_apps.detect"]
 
 
 def run_on_full_disk(args: list[str], cwd: Path, limit: int | None) -> tuple[subprocess.CompletedProcess[str], float]:
-    """objrec-detect with every file it writes limited to ``limit`` bytes; the result and its seconds."""
-
-    def small_disk() -> None:
-        if limit is not None:
-            resource.setrlimit(resource.RLIMIT_FSIZE, (limit, limit))
-            signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
-
-    start = time.monotonic()
-    result = subprocess.run([*DETECT, *args, "--no-progress"], capture_output=True, text=True, cwd=cwd, timeout=60,
-                            preexec_fn=small_disk)
-    return result, time.monotonic() - start
+    """objrec-detect with every file it writes limited to ``limit`` bytes (tests/hostile/harness.py); the result
+    and its CPU seconds."""
+    run = harness.run([*DETECT, *args, "--no-progress"], cwd, preexec=harness.file_size_limit(limit),
+                      watch_files=False)
+    return run.completed(), run.cpu_seconds
 
 
-def the_one_error_line(result: subprocess.CompletedProcess[str]) -> str:
-    lines = result.stderr.splitlines()
-    assert result.returncode == 2, result.stderr
-    assert len(lines) == 1 and "Traceback" not in result.stderr, result.stderr
-    return lines[0]
-
-
-def char_device(tmp_path: Path) -> Path:
-    """A /dev/full-like node in the test folder (root only), so that a regression cannot replace the real one."""
-    node = tmp_path / "full"
-    try:
-        os.mknod(node, stat.S_IFCHR | 0o666, os.makedev(1, 7))
-    except (PermissionError, OSError) as exc:
-        pytest.skip(f"cannot make a device node here: {exc}")
-    return node
 
 
 def no_temporaries(folder: Path) -> bool:
@@ -81,7 +59,7 @@ def test_output_on_a_full_disk_keeps_only_whole_lines(project_root, tmp_path):
     kept = [json.loads(row) for row in text.splitlines()]  # every line is whole JSON
     assert [row["header"]["seq"] for row in kept] == list(range(len(kept)))
     assert f"{len(kept)} whole line" in line
-    assert seconds < 10
+    assert seconds < harness.SECONDS_LIMIT  # CPU seconds
 
 
 def test_output_onto_a_full_device_is_one_line_and_the_device_stays(project_root, tmp_path):
@@ -104,7 +82,7 @@ def test_annotated_avi_on_a_full_disk_stops_early_and_says_how_many_frames_are_r
     readable, written = int(found[1]), int(found[2])
     assert written < 400  # noticed while running, not after every frame went nowhere
     assert 0 < readable < written and readable_frames(video, written) == readable
-    assert seconds < 10
+    assert seconds < harness.SECONDS_LIMIT  # CPU seconds
 
 
 def test_annotated_mp4_on_a_full_disk_is_checked_at_close(project_root, tmp_path):

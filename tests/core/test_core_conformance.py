@@ -1,9 +1,10 @@
-"""Every registered module keeps what its declarations promise (objrec_core.testing.check_module), and the
-checker catches modules that do not: each broken module below differs from a correct one by one bug."""
+"""Every registered module keeps what its declarations promise (objrec_core.testing.check_module), each check
+its own pytest case, with the defaults a plug-in author runs (the full-size demo frames, ``seconds`` of CPU
+per frame); and the checker catches modules that do not: each broken module below differs from a correct one
+by one bug."""
 
 from __future__ import annotations
 
-import itertools
 import time
 
 import numpy as np
@@ -11,43 +12,37 @@ import pytest
 
 from objrec2d import ImageDetector, ImageFilter
 from objrec2d.messages import DetectedObject2D, Polygon
-from objrec_core import Int, ParameterError, Rect, module_type, module_type_names, open_source
-from objrec_core.testing import check_module
+from objrec_core import Int, ParameterError, Rect, module_type, module_type_names
+from objrec_core.testing import MODULE_CHECK_IDS, cases, check_module, run_case
+
+#: Cases that take more than a few seconds: ShapeDetector's ~35 boundary values, each a RANSAC search of a
+#: full 640 x 480 demo cloud (about a second of CPU each, three at most at max_objects=50 or normal_window=50).
+SLOW = {("ShapeDetector", "boundaries")}
+MODULE_CASES = [pytest.param(name, check, id=f"{name}::{check}",
+                             marks=[pytest.mark.slow] if (name, check) in SLOW else [])
+                for name in module_type_names() for check in MODULE_CHECK_IDS]
 
 
-def half_resolution_demo_clouds(count: int = 2) -> list:
-    """The 3D demo's first clouds with every other row and column: still organized, a quarter of the points.
-
-    ShapeDetector's ~30 boundary values cost about a second each on the full 640 x 480 cloud (two of them,
-    max_objects=50 and normal_window=50, about five), which alone would take most of the time budget of this
-    file; the quarter-size cloud runs the same code paths.
-    """
-    from objrec3d import PointCloud
-
-    with open_source("demo", "3d") as source:
-        clouds = [frame.data for frame in itertools.islice(iter(source), count)]
-    halves = []
-    for cloud in clouds:
-        points = cloud.points.reshape(cloud.height, cloud.width, 3)[::2, ::2]
-        colors = None if cloud.colors is None else cloud.colors.reshape(cloud.height, cloud.width, 3)[::2, ::2]
-        halves.append(PointCloud(points.reshape(-1, 3), None if colors is None else colors.reshape(-1, 3),
-                                 points.shape[1], points.shape[0], sensor_origin=cloud.sensor_origin))
-    return halves
-
-
-@pytest.mark.parametrize("name", module_type_names())
-def test_registered_module_conforms(name):
+@pytest.mark.parametrize(("name", "check"), MODULE_CASES)
+def test_registered_module_conforms(name, check):
     klass = module_type(name)
     if klass.kind == "3d":
         pytest.importorskip("open3d")
-    frames = half_resolution_demo_clouds() if name == "ShapeDetector" else None
-    report = check_module(klass, frames=frames)
+    (case,) = [c for c in cases(klass) if c.id == f"{name}::{check}"]
+    run_case(case)
+
+
+def test_a_whole_check_reports_what_it_did():
+    from objrec2d import MorphologyFilter
+
+    report = check_module(MorphologyFilter)
     assert report.checks == ["declarations", "refusals", "frames at the defaults", "boundary values",
                              "change events", "repr", "parameter file round trip", "snapshots across threads"]
-    assert report.refused >= 3 * len(klass.parameter_specs())  # every parameter has several bad values
-    assert report.boundaries >= len(klass.parameter_specs())
+    assert report.refused >= 3 * len(MorphologyFilter.parameter_specs())  # every parameter has several bad values
+    assert report.boundaries >= len(MorphologyFilter.parameter_specs())
     assert report.frames >= 3
     assert report.snapshots >= 1000
+    assert 0 < report.frame_cpu_seconds < 10.0  # measured, and within the default limit
 
 
 # -- broken modules: each is a correct one with one bug ---------------------------------------------------
@@ -205,14 +200,52 @@ def test_refusal_message_must_name_the_value():
         check_module(MuteFilter)
 
 
-def test_a_slow_frame_fails_within_the_time_allowed():
+def spin(cpu_seconds: float) -> None:
+    """Use the CPU for ``cpu_seconds`` of this thread's CPU time."""
+    end = time.thread_time() + cpu_seconds
+    while time.thread_time() < end:
+        pass
+
+
+def test_a_frame_over_its_cpu_time_fails_without_being_waited_for():
+    """At gain=100 a frame spins for 2 s of CPU; the check stops waiting at 0.2 s of it."""
+    slow_frames = []
+
     class SlowFilter(GoodFilter):
         def filter(self, frame):
-            time.sleep(0.5 if self.params.gain == 100 else 0)
+            if self.params.gain == 100:
+                slow_frames.append(frame)
+                spin(2.0)
             return super().filter(frame)
 
-    start = time.perf_counter()
-    with pytest.raises(AssertionError, match=r"\[boundary values\] gain=100: one frame took longer than 0.2 s"):
+    with pytest.raises(AssertionError, match=r"\[boundary values\] gain=100: one frame took more than 0.2 s of CPU "
+                                             r"time \(still running\)"):
         check_module(SlowFilter, seconds=0.2)
-    assert time.perf_counter() - start < 5
+    assert len(slow_frames) == 1  # the check stopped at the first frame over its allowance
+
+
+def test_waiting_is_not_cpu_time():
+    """A frame that waits (for a device, or on a busy machine) uses no CPU: it is not slow."""
+
+    class WaitingFilter(GoodFilter):
+        def filter(self, frame):
+            time.sleep(0.3 if self.params.gain == 100 else 0.0)
+            return super().filter(frame)
+
+    report = check_module(WaitingFilter, seconds=0.2)
+    assert report.frame_cpu_seconds < 0.2
+
+
+def test_a_module_declares_a_deviation_with_its_reason():
+    class ShowsOldValues(StaleReprFilter):
+        expected_failures = {"repr": "the repr is fixed at construction (a known limitation)"}  # noqa: RUF012
+
+    report = check_module(ShowsOldValues)
+    assert list(report.deviations.failed_as_declared) == ["ShowsOldValues::repr"]
+    assert report.deviations.failed_as_declared["ShowsOldValues::repr"].startswith(
+        "the repr is fixed at construction (a known limitation) (failed as declared: ShowsOldValues [repr] gain=11")
+    assert "parameter file round trip" in report.checks  # the checks after it still ran
+    outcomes = {case.id: case() for case in cases(ShowsOldValues)}
+    assert outcomes["ShowsOldValues::repr"] == "deviated"
+    assert {outcome for case_id, outcome in outcomes.items() if case_id != "ShowsOldValues::repr"} == {"passed"}
 

@@ -26,9 +26,9 @@ def load_error(tmp_path, text: str) -> ParameterFileError:
 def test_an_alias_bomb_is_refused_at_once(tmp_path):
     lines = ['a0: &a0 ["lol", "lol", "lol", "lol", "lol", "lol", "lol", "lol", "lol"]']
     lines += [f"a{i}: &a{i} [" + ", ".join([f"*a{i - 1}"] * 9) + "]" for i in range(1, 9)]
-    start = time.perf_counter()
+    start = time.thread_time()  # CPU time of this thread: a loaded machine cannot fail it
     error = load_error(tmp_path, HEAD + "description: *a8\n" + "\n".join(lines) + "\npipeline: []\n")
-    assert time.perf_counter() - start < 1.0
+    assert time.thread_time() - start < 1.0
     assert "aliases" in str(error)
 
 
@@ -49,8 +49,8 @@ def test_duplicate_keys_are_refused_with_their_line(tmp_path):
     [
         ("{h_min: null}", "pipeline[0].parameters.h_min", "None is invalid: expected an integer"),
         ("{h_min: 99999999999999999999}", "pipeline[0].parameters.h_min", "99999999999999999999 is invalid"),
-        ("false", "pipeline[0].parameters", "expected a mapping, found False"),
-        ("[1, 2]", "pipeline[0].parameters", "expected a mapping, found [1, 2]"),
+        ("false", "pipeline[0].parameters", "False is invalid: expected a mapping"),
+        ("[1, 2]", "pipeline[0].parameters", "[1, 2] is invalid: expected a mapping"),
     ],
 )
 def test_messages_name_the_value(tmp_path, parameters, key_path, fragment):

@@ -115,7 +115,7 @@ class CountdownSource(FrameSource):
 
 
 def test_a_new_source_type_plugs_in_with_its_own_scheme_and_extension(tmp_path):
-    register_source(CountdownSource)
+    register_source(CountdownSource, "2d.countdown")
     try:
         source = open_source("countdown:5", "2d")
         assert [int(f.data[0, 0]) for f in source] == [5, 4, 3, 2, 1]
@@ -126,6 +126,6 @@ def test_a_new_source_type_plugs_in_with_its_own_scheme_and_extension(tmp_path):
         with pytest.raises(SourceError, match="a source of 2d data"):
             open_source("countdown:2", "3d")
     finally:
-        unregister_source(CountdownSource)
+        unregister_source("2d.countdown")
     with pytest.raises(SourceError, match="no such file or folder"):
         open_source("countdown:5", "2d")

@@ -116,7 +116,8 @@ def test_loading_is_all_or_nothing(tmp_path):
         ),
         ("format_version: 1\nkind: 2d\nextra: 1\npipeline: []\n", "extra", "unknown key"),
         ("format_version: 7\nkind: 2d\npipeline: []\n", "format_version", "newer"),
-        ("format_version: 1\nkind: 4d\npipeline: []\n", "kind", "expected one of 2d, 3d, found '4d'"),
+        ("format_version: 1\nkind: 4d\npipeline: []\n", "kind",
+         "bad.yaml:2: kind: '4d' is invalid: expected one of 2d, 3d"),
         ("format_version: 1\nkind: 2d\npipeline: []\n", "pipeline", "empty"),
         ("kind: 2d\npipeline: []\n", "format_version", "missing"),
         (

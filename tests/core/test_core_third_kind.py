@@ -89,14 +89,13 @@ def signal_plugin() -> Iterator[ModuleType]:
         import objrec_signal
 
         register_kind(objrec_signal.SignalKind)
-        register_source(objrec_signal.WaveSource)
+        register_source(objrec_signal.WaveSource, "signal.wave")  # its entry point's name
         register_module(objrec_signal.MovingAverageFilter)
         register_module(objrec_signal.PeakDetector)
         yield objrec_signal
     finally:
         unregister_kind("signal")
-        if "objrec_signal" in sys.modules:
-            unregister_source(sys.modules["objrec_signal"].WaveSource)
+        unregister_source("signal.wave")
         unregister_module("MovingAverageFilter")
         unregister_module("PeakDetector")
         sys.path.remove(str(PLUGIN))

@@ -9,6 +9,8 @@ from typing import Any
 
 import pytest
 
+from tests.qt_waits import HANG_GUARD_MS
+
 pytest.importorskip("PySide6", reason="the GUI extra (PySide6) is not installed")
 
 from PySide6.QtCore import QSettings
@@ -52,7 +54,7 @@ def make_gui(qtbot: Any, settings: QSettings) -> Iterator[Callable[..., Definiti
             window.resize(*size)
         window.show()
         if wait:
-            with qtbot.waitSignal(window.frameShown, timeout=10000):
+            with qtbot.waitSignal(window.frameShown, timeout=HANG_GUARD_MS):
                 pass
         return window
 

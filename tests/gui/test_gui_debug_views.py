@@ -8,6 +8,7 @@ import pytest
 
 from objrec_apps.define import starting_system
 from objrec_core import Rect
+from tests.qt_waits import HANG_GUARD_MS
 
 objrec2d = pytest.importorskip("objrec2d")
 
@@ -28,7 +29,7 @@ def two_targets():
 def test_two_feature_targets_show_two_debug_views(make_gui, qtbot, tmp_path, mode):
     system = two_targets()
     gui = make_gui(system, view_mode=mode, paused=True, wait=False)
-    with qtbot.waitSignal(gui.frameShown, timeout=10000):
+    with qtbot.waitSignal(gui.frameShown, timeout=HANG_GUARD_MS):
         gui.worker.step()
     views = gui.stage_views.views
     assert {"poster:debug", "left_half:debug"} <= set(views)

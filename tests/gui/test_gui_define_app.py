@@ -37,7 +37,7 @@ def test_a_broken_parameter_file_is_one_line_and_exit_code_2(tmp_path):
     path = tmp_path / "bad.yaml"
     path.write_text("format_version: 1\nkind: 2d\npipeline:\n- type: HSVFilter\n  parameters: {h_min: 300}\n")
     line = one_error_line(run_define(str(path)))
-    assert f"{path}: pipeline[0].parameters.h_min" in line and "out of range" in line
+    assert f"{path}:5: pipeline[0].parameters.h_min" in line and "out of range" in line
 
 
 def test_unknown_systems_missing_files_and_bad_sources_are_user_errors(tmp_path):

@@ -13,6 +13,7 @@ from PySide6.QtWidgets import QApplication
 from objrec_apps.define import starting_system
 from objrec_apps.gui.eyedropper import hsv_filter_of, hsv_ranges
 from objrec_core import Change
+from tests.qt_waits import HANG_GUARD_MS
 
 objrec2d = pytest.importorskip("objrec2d")
 
@@ -84,7 +85,7 @@ def _recorded(gui) -> list[tuple[str, bool]]:
 
 def _window_on_frame_0(make_gui, qtbot):
     gui = make_gui(starting_system("hsv"), paused=True, wait=False)
-    with qtbot.waitSignal(gui.frameShown, timeout=10000):
+    with qtbot.waitSignal(gui.frameShown, timeout=HANG_GUARD_MS):
         gui.worker.step()
     assert gui.last_results.frame.index == 0
     return gui
@@ -119,7 +120,7 @@ def test_the_eyedropper_on_the_red_disk_sets_the_filter_in_one_change(make_gui, 
                         f"(wrapping around 0), saturation {values['s_min']}..{values['s_max']}, "
                         f"value {values['v_min']}..{values['v_max']}", False)]
     # The window reprocesses the frame: the pipeline now finds the disk alone, where it is.
-    qtbot.waitUntil(lambda: gui.last_shown_generation > generation, timeout=10000)
+    qtbot.waitUntil(lambda: gui.last_shown_generation > generation, timeout=HANG_GUARD_MS)
     objects = gui.last_results.objects.objects
     assert len(objects) == 1
     points = np.array([[p.x, p.y] for p in objects[0].polygon.points])
@@ -138,7 +139,7 @@ def test_without_the_eyedropper_a_drag_still_goes_to_the_detectors(make_gui, qtb
 @pytest.mark.timeout(60)
 def test_a_pipeline_without_an_hsv_filter_says_so(make_gui, qtbot):
     gui = make_gui(starting_system("feature"), paused=True, wait=False)
-    with qtbot.waitSignal(gui.frameShown, timeout=10000):
+    with qtbot.waitSignal(gui.frameShown, timeout=HANG_GUARD_MS):
         gui.worker.step()
     before = gui.system.module("poster").get_parameters()
     gui.eyedropper.action.setChecked(True)

@@ -32,6 +32,7 @@ from objrec_core import (
     register_source,
 )
 from objrec_core.registry import unregister_kind, unregister_source
+from tests.qt_waits import HANG_GUARD_MS
 
 HEIGHT = 64
 LENGTH = 200
@@ -131,9 +132,9 @@ def test_a_third_kind_shows_every_stage(make_gui, qtbot, signal_kind):
     system = RecognitionSystem([Smooth("smooth"), Peaks("peaks")], object_name="peak")
     gui = make_gui(system, source="wave")
     assert gui.central.currentWidget() is gui.stage_views
-    qtbot.waitUntil(lambda: list(gui.stage_views.views) == ["input", "smooth", "peaks"], timeout=5000)
+    qtbot.waitUntil(lambda: list(gui.stage_views.views) == ["input", "smooth", "peaks"], timeout=HANG_GUARD_MS)
     assert gui.source_bar.name_label.text().strip() == "wave" and gui.worker.source_kind == "signal"
-    with qtbot.waitSignal(gui.frameShown, timeout=5000) as signal:
+    with qtbot.waitSignal(gui.frameShown, timeout=HANG_GUARD_MS) as signal:
         pass
     results = signal.args[0].results
     smoothed = results.stages[1].output
@@ -158,8 +159,8 @@ def test_a_source_of_several_kinds_waits_for_the_pipelines_kind(make_gui, qtbot,
     assert gui.worker.source is None and gui.last_results is None
     gui.system.add_module(Smooth("smooth"))  # now a signal pipeline: no signal source reads demo, its own demo
     assert gui.statusBar().currentMessage() == "no source of signals reads demo: opening wave…"
-    qtbot.waitUntil(lambda: gui.source_bar.name_label.text().strip() == "wave", timeout=5000)
-    qtbot.waitUntil(lambda: list(gui.stage_views.views) == ["input", "smooth"], timeout=5000)
+    qtbot.waitUntil(lambda: gui.source_bar.name_label.text().strip() == "wave", timeout=HANG_GUARD_MS)
+    qtbot.waitUntil(lambda: list(gui.stage_views.views) == ["input", "smooth"], timeout=HANG_GUARD_MS)
     assert gui.worker.source_kind == "signal"
 
 
@@ -168,7 +169,7 @@ def test_a_pipeline_whose_kind_changes_opens_that_kinds_demo(make_gui, qtbot, si
     assert gui.worker.source_kind == "2d" and list(gui.stage_views.views) == ["input", "colour", "open", "blobs"]
     gui.system.set_modules([Smooth("smooth"), Peaks("peaks")], kind="signal")
     assert gui.statusBar().currentMessage() == "the pipeline now works on signals: opening wave…"
-    qtbot.waitUntil(lambda: list(gui.stage_views.views) == ["input", "smooth", "peaks"], timeout=5000)
+    qtbot.waitUntil(lambda: list(gui.stage_views.views) == ["input", "smooth", "peaks"], timeout=HANG_GUARD_MS)
     assert gui.worker.source_kind == "signal" and gui.source_bar.name_label.text().strip() == "wave"
     assert gui.last_results.frame.data.shape == (LENGTH,)
     assert "(signal pipeline)" in gui.windowTitle()

@@ -13,7 +13,14 @@ from PySide6.QtWidgets import QCheckBox, QComboBox, QLineEdit, QWidget
 
 from objrec2d import HSVFilter, MorphologyFilter
 from objrec_apps.gui import ParameterPanel, create_panel, register_panel, unregister_panel
-from objrec_apps.gui.param_widgets import INT_LIMIT, BoolEditor, ChoiceEditor, NumberEditor, TextEditor
+from objrec_apps.gui.param_widgets import (
+    INT_LIMIT,
+    BoolEditor,
+    ChoiceEditor,
+    NumberEditor,
+    OptionalEditor,
+    TextEditor,
+)
 from objrec_core import Bool, Choice, Filter, Float, Int, Str, module_types
 
 
@@ -86,6 +93,11 @@ def test_a_panel_is_generated_for_every_registered_module_type(qtbot, type_name)
     for spec in specs:
         editor = panel.editors[spec.name]
         assert spec.doc and spec.doc in editor.toolTip()
+        if spec.optional:  # the type's editor, inside a "none" box
+            assert isinstance(editor, OptionalEditor) and editor.none.isChecked() is (values[spec.name] is None)
+            if values[spec.name] is None:
+                continue
+            editor = editor.inner
         if isinstance(spec, Int | Float):
             assert isinstance(editor, NumberEditor)
             assert editor.spin.value() == pytest.approx(values[spec.name], abs=10 ** -editor.spin.decimals()

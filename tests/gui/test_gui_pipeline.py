@@ -9,6 +9,7 @@ from PySide6.QtWidgets import QFileDialog
 
 from objrec_apps.define import starting_system
 from objrec_core import build_system
+from tests.qt_waits import HANG_GUARD_MS
 
 
 def menu_action(menu, name: str) -> QAction:
@@ -28,7 +29,7 @@ def test_the_pipeline_menu_adds_a_module_and_the_saved_file_holds_it(make_gui, m
     qtbot.waitUntil(lambda: [p.module.id for p in gui.panels.panels] == ["colour", "open", "MorphologyFilter",
                                                                          "blobs"])
     gui.panels.panel("MorphologyFilter").editors["operation"].combo.setCurrentText("close")
-    qtbot.waitUntil(lambda: "MorphologyFilter" in gui.stage_views.views, timeout=5000)
+    qtbot.waitUntil(lambda: "MorphologyFilter" in gui.stage_views.views, timeout=HANG_GUARD_MS)
 
     path = tmp_path / "with_close.yaml"
     monkeypatch.setattr(QFileDialog, "getSaveFileName", staticmethod(lambda *a: (str(path), "")))
@@ -61,7 +62,7 @@ def test_remove_and_reorder(make_gui, qtbot):
     assert [m.id for m in gui.system.modules] == ["colour", "blobs"]
     assert gui.statusBar().currentMessage() == "removed MorphologyFilter 'open'"
     qtbot.waitUntil(lambda: [p.module.id for p in gui.panels.panels] == ["colour", "blobs"])
-    qtbot.waitUntil(lambda: list(gui.stage_views.views) == ["input", "colour", "blobs"], timeout=5000)
+    qtbot.waitUntil(lambda: list(gui.stage_views.views) == ["input", "colour", "blobs"], timeout=HANG_GUARD_MS)
 
 
 def test_3d_modules_cannot_join_a_2d_pipeline(make_gui):
@@ -89,9 +90,10 @@ def test_an_empty_window_builds_a_pipeline_from_the_menu(make_gui, qtbot):
     for name in ("add:HSVFilter", "add:BinaryDetector"):
         menu_action(menu, name).trigger()
     assert gui.system.kind == "2d"
-    with qtbot.waitSignal(gui.frameShown, timeout=10000):
+    with qtbot.waitSignal(gui.frameShown, timeout=HANG_GUARD_MS):
         pass
-    qtbot.waitUntil(lambda: list(gui.stage_views.views) == ["input", "HSVFilter", "BinaryDetector"], timeout=5000)
+    qtbot.waitUntil(lambda: list(gui.stage_views.views) == ["input", "HSVFilter", "BinaryDetector"],
+                    timeout=HANG_GUARD_MS)
     assert gui.worker.source_kind == "2d" and gui.source_bar.name_label.text().strip() == "demo"
 
 
@@ -103,7 +105,7 @@ def test_a_pipeline_that_becomes_3d_gets_the_3d_demo_and_view(make_gui, qtbot, t
     image = tmp_path / "frame.png"
     cv2.imwrite(str(image), DemoScene().render(0)[0])
     gui = make_gui(None, source=str(image), wait=False, paused=True)  # only a 2d source reads a .png
-    qtbot.waitUntil(lambda: gui.worker.source is not None, timeout=5000)
+    qtbot.waitUntil(lambda: gui.worker.source is not None, timeout=HANG_GUARD_MS)
     assert type(gui.worker.source).__module__.startswith("objrec2d") and gui.worker.source_kind == "2d"
     menu = gui.pipeline_menu
     three_d = [name for name, klass in menu.module_types().items() if klass.kind == "3d"]
@@ -111,6 +113,6 @@ def test_a_pipeline_that_becomes_3d_gets_the_3d_demo_and_view(make_gui, qtbot, t
         return  # the 3D extra is not installed
     menu_action(menu, "add:DistanceFilter").trigger()
     assert gui.system.kind == "3d" and gui.central.currentWidget() is gui.view3d
-    qtbot.waitUntil(lambda: type(gui.worker.source).__module__.startswith("objrec3d"), timeout=10000)
-    qtbot.waitUntil(lambda: gui.source_bar.name_label.text().strip() == "demo", timeout=5000)
+    qtbot.waitUntil(lambda: type(gui.worker.source).__module__.startswith("objrec3d"), timeout=HANG_GUARD_MS)
+    qtbot.waitUntil(lambda: gui.source_bar.name_label.text().strip() == "demo", timeout=HANG_GUARD_MS)
     assert gui.worker.source_kind == "3d"

@@ -13,6 +13,7 @@ import pytest
 
 from objrec_apps.define import starting_system
 from objrec_core import SourceError, open_source
+from tests.qt_waits import HANG_GUARD_MS
 
 SIZE = (64, 48)  # width, height
 
@@ -85,7 +86,7 @@ def open_paused(make_gui, source):
 
 
 def wait_for_index(qtbot, shown, index):
-    qtbot.waitUntil(lambda: any(s.results.frame.index == index for s in shown), timeout=10000)
+    qtbot.waitUntil(lambda: any(s.results.frame.index == index for s in shown), timeout=HANG_GUARD_MS)
     return next(s.results.frame for s in shown if s.results.frame.index == index)
 
 
@@ -99,7 +100,7 @@ def test_the_seek_bar_jumps_to_frame_n_of_a_video(make_gui, qtbot, tmp_path):
     gui.seek_bar.slider.setValue(7)  # what a click or a released drag does
     frame = wait_for_index(qtbot, shown, 7)
     assert abs(level(frame.data) - shade(7)) <= 3
-    qtbot.waitUntil(lambda: gui.seek_bar.counter_text == "frame 8 / 10", timeout=5000)
+    qtbot.waitUntil(lambda: gui.seek_bar.counter_text == "frame 8 / 10", timeout=HANG_GUARD_MS)
     assert gui.worker.paused  # seeking while paused shows the frame and stays paused
     assert gui.seek_bar.file_label.text() == ""  # a video's frames are the video itself
     assert gui.source_bar.kind.currentText() == "file"  # the bar shows the real source, not "demo"
@@ -117,7 +118,7 @@ def test_the_seek_bar_jumps_to_frame_n_of_a_folder_and_names_the_file(make_gui, 
     gui.seek_bar.slider.setValue(4)
     frame = wait_for_index(qtbot, shown, 4)
     assert level(frame.data) == shade(4)
-    qtbot.waitUntil(lambda: gui.seek_bar.counter_text == "frame 5 / 6", timeout=5000)
+    qtbot.waitUntil(lambda: gui.seek_bar.counter_text == "frame 5 / 6", timeout=HANG_GUARD_MS)
     assert gui.seek_bar.file_label.text().strip() == "frame4.png"
     assert gui.source_bar.kind.currentText() == "folder"
 
@@ -130,11 +131,11 @@ def test_loop_starts_a_folder_again(make_gui, qtbot, tmp_path):
     indices = []
     gui.frameShown.connect(lambda s: indices.append(s.results.frame.index))
     gui.set_paused(False)
-    qtbot.waitUntil(lambda: len(indices) >= 6, timeout=10000)
+    qtbot.waitUntil(lambda: len(indices) >= 6, timeout=HANG_GUARD_MS)
     assert not gui.worker.ended
     assert 2 in indices and 0 in indices[indices.index(2):]  # after the last frame, the first again
     gui.seek_bar.loop_box.setChecked(False)
-    qtbot.waitUntil(lambda: gui.worker.ended, timeout=10000)
+    qtbot.waitUntil(lambda: gui.worker.ended, timeout=HANG_GUARD_MS)
 
 
 def test_the_endless_demo_has_no_seek_bar(make_gui):
@@ -170,4 +171,4 @@ def test_the_seek_bar_jumps_to_frame_n_of_a_bag(make_gui, qtbot, project_root, t
     gui.seek_bar.slider.setValue(3)
     frame = wait_for_index(qtbot, shown, 3)
     assert np.array_equal(frame.data, expected[3])
-    qtbot.waitUntil(lambda: gui.seek_bar.counter_text == "frame 4 / 6", timeout=5000)
+    qtbot.waitUntil(lambda: gui.seek_bar.counter_text == "frame 4 / 6", timeout=HANG_GUARD_MS)

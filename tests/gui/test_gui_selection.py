@@ -12,6 +12,7 @@ from PySide6.QtWidgets import QApplication
 from objrec_apps.define import starting_system
 from objrec_apps.gui import InteractiveImage
 from objrec_core import Rect
+from tests.qt_waits import HANG_GUARD_MS
 
 
 def mouse(widget, kind: QEvent.Type, pos: QPointF, buttons: Qt.MouseButton, button: Qt.MouseButton) -> None:
@@ -106,7 +107,7 @@ def test_images_that_arrive_during_a_drag_wait_for_the_release(qtbot):
 
 def test_hovering_shows_coordinates_bgr_and_hsv(make_gui, qtbot):
     gui = make_gui(starting_system("hsv"), paused=True, wait=False)
-    with qtbot.waitSignal(gui.frameShown, timeout=10000):
+    with qtbot.waitSignal(gui.frameShown, timeout=HANG_GUARD_MS):
         gui.worker.step()
     view = gui.stage_views.view("input")
     frame = gui.last_results.frame.data
@@ -128,7 +129,7 @@ def test_a_mouse_selection_becomes_the_target_found_in_the_next_frames(make_gui,
     detector = system.module("poster")
     detector.clear_target()  # the shipped file holds a target: start without one
     gui = make_gui(system, paused=True, wait=False)
-    with qtbot.waitSignal(gui.frameShown, timeout=10000):
+    with qtbot.waitSignal(gui.frameShown, timeout=HANG_GUARD_MS):
         gui.worker.step()  # frame 0, where the demo's poster faces the camera
     results = gui.last_results
     assert results.frame.index == 0 and len(results.objects) == 0
@@ -137,9 +138,9 @@ def test_a_mouse_selection_becomes_the_target_found_in_the_next_frames(make_gui,
 
     x, y, w, h = DemoScene().target.reference_rect  # the poster, head-on in frame 0
     drag(view, view.to_widget(QPointF(x, y)), view.to_widget(QPointF(x + w, y + h)))
-    qtbot.waitUntil(lambda: detector.target is not None, timeout=5000)
+    qtbot.waitUntil(lambda: detector.target is not None, timeout=HANG_GUARD_MS)
     assert detector.target.rect == Rect(x, y, w, h)
-    qtbot.waitUntil(lambda: "taken by poster" in gui.statusBar().currentMessage(), timeout=5000)
+    qtbot.waitUntil(lambda: "taken by poster" in gui.statusBar().currentMessage(), timeout=HANG_GUARD_MS)
 
     found = []
 
@@ -150,7 +151,7 @@ def test_a_mouse_selection_becomes_the_target_found_in_the_next_frames(make_gui,
 
     gui.frameShown.connect(record)
     gui.set_paused(False)
-    qtbot.waitUntil(lambda: len({f[0] for f in found if f[0] > 0}) >= 10, timeout=20000)
+    qtbot.waitUntil(lambda: len({f[0] for f in found if f[0] > 0}) >= 10, timeout=HANG_GUARD_MS)
     gui.set_paused(True)
     later = [f for f in found if f[0] > 0]
     hits = 0
@@ -167,12 +168,12 @@ def test_a_refused_selection_shows_the_reason(make_gui, qtbot):
     system = starting_system("feature")
     system.module("poster").clear_target()
     gui = make_gui(system, paused=True, wait=False)
-    with qtbot.waitSignal(gui.frameShown, timeout=10000):
+    with qtbot.waitSignal(gui.frameShown, timeout=HANG_GUARD_MS):
         gui.worker.step()
     view = gui.stage_views.view("input")
     # A corner of the demo's plain, noisy background: nothing to match.
     drag(view, view.to_widget(QPointF(150, 5)), view.to_widget(QPointF(165, 15)))
-    qtbot.waitUntil(lambda: "refused" in gui.statusBar().currentMessage(), timeout=5000)
+    qtbot.waitUntil(lambda: "refused" in gui.statusBar().currentMessage(), timeout=HANG_GUARD_MS)
     assert gui.system.module("poster").target is None
     assert "poster refused the selection:" in gui.statusBar().currentMessage()
 
@@ -187,4 +188,4 @@ def test_selections_reach_every_registered_callback(make_gui, qtbot):
     assert received and received[0][0] == Rect(10, 10, 40, 30)
     # blobs ignores selections: the default callback says so rather than "taken by blobs" (issue 12)
     qtbot.waitUntil(lambda: "no detector in the pipeline takes selections (blobs ignores them)"
-                    in gui.statusBar().currentMessage(), timeout=5000)
+                    in gui.statusBar().currentMessage(), timeout=HANG_GUARD_MS)

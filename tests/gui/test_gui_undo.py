@@ -7,6 +7,7 @@ import pytest
 from PySide6.QtCore import QPointF
 
 from objrec_apps.define import starting_system
+from tests.qt_waits import HANG_GUARD_MS
 
 
 def hsv_window(make_gui):
@@ -104,14 +105,14 @@ def test_a_target_selection_undoes_and_redoes(make_gui, qtbot):
     detector = system.module("poster")
     shipped = detector.target.rect
     gui = make_gui(system, paused=True, wait=False)
-    with qtbot.waitSignal(gui.frameShown, timeout=10000):
+    with qtbot.waitSignal(gui.frameShown, timeout=HANG_GUARD_MS):
         gui.worker.step()  # frame 0, where the demo's poster faces the camera
     view = gui.stage_views.view("input")
     x, y, w, h = DemoScene().target.reference_rect
     x, y, w, h = x + 10, y + 10, w - 20, h - 20  # not the shipped target's rectangle
     assert (shipped.x, shipped.y, shipped.width, shipped.height) != (x, y, w, h)
     drag(view, view.to_widget(QPointF(x, y)), view.to_widget(QPointF(x + w, y + h)))
-    qtbot.waitUntil(lambda: gui.undo.stack.count() == 1, timeout=5000)  # made in the worker thread
+    qtbot.waitUntil(lambda: gui.undo.stack.count() == 1, timeout=HANG_GUARD_MS)  # made in the worker thread
     selected = detector.target.rect
     assert (selected.x, selected.y, selected.width, selected.height) == (x, y, w, h)
     assert gui.undo.stack.text(0) == "poster target"

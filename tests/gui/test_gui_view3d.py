@@ -24,6 +24,7 @@ from objrec_apps.gui.cloud_render import CloudScene, OrbitCamera, ground_grid, n
 from objrec_apps.gui.cloud_view import ZOOM_STEP, outlines_bounds
 from objrec_apps.gui.gl_cloud_view import gl_available, make_cloud_view
 from objrec_core import Frame, Stage, StageResults, get_kind
+from tests.qt_waits import HANG_GUARD_MS
 
 objrec3d_messages = pytest.importorskip("objrec3d.messages")
 objrec3d_cloud = pytest.importorskip("objrec3d.cloud")
@@ -162,18 +163,31 @@ def test_the_ground_grid_lies_under_the_cloud_in_round_steps_and_is_drawn(view):
     assert changed > 100
 
 
-def test_the_frame_rate_label_counts_the_frames_really_drawn(view):
+class _StepClock:
+    """A perf_counter that moves only when read (1 ms a read) or told: frame times the test chooses, whatever the
+    machine's load."""
+
+    def __init__(self) -> None:
+        self.now = time.perf_counter() + 10.0  # past every real paint time, by more than the rate's window
+
+    def perf_counter(self) -> float:
+        self.now += 0.001
+        return self.now
+
+
+def test_the_frame_rate_label_counts_the_frames_really_drawn(view, monkeypatch):
     assert view.frames_per_second() == 0.0 or view.frames_drawn > 0
-    start = time.perf_counter()
+    clock = _StepClock()
+    monkeypatch.setattr("objrec_apps.gui.cloud_view.time", clock)
+    drawn = view.frames_drawn
     for _ in range(12):
         view.camera.rotate(0.05, 0.0)
         view.repaint()
-        time.sleep(0.03)
-    elapsed = time.perf_counter() - start
-    measured = view.frames_per_second()
-    assert measured == pytest.approx(11 / (elapsed - 0.03), rel=0.35)
-    assert view.frame_ms > 0
-    assert view.frames_per_second(now=time.perf_counter() + 2.0) == 0.0  # nothing drawn: 0, not the last figure
+        clock.now += 0.05  # 50 ms between frames, plus the clock's own reads while drawing
+    assert view.frames_drawn - drawn >= 12
+    assert view.frames_per_second(now=clock.now) == pytest.approx(1 / 0.052, rel=0.1)  # two reads a frame
+    assert view.frame_ms == pytest.approx(1.0)  # a paint reads the clock at its start and at its end
+    assert view.frames_per_second(now=clock.now + 2.0) == 0.0  # nothing drawn: 0, not the last figure
 
 
 def test_the_3d_page_has_the_controls_and_a_busy_indicator_until_a_frame_comes(qtbot):
@@ -206,9 +220,9 @@ def test_the_window_says_it_is_busy_while_a_3d_source_opens(make_gui, qtbot):
     gui = make_gui(starting_system("shape"), source="demo:frames=0", fps_limit=10.0, wait=False)
     gui.open_source("demo")
     assert gui.view3d.is_busy
-    with qtbot.waitSignal(gui.frameShown, timeout=30000):
+    with qtbot.waitSignal(gui.frameShown, timeout=HANG_GUARD_MS):
         pass
-    qtbot.waitUntil(lambda: not gui.view3d.is_busy, timeout=30000)
+    qtbot.waitUntil(lambda: not gui.view3d.is_busy, timeout=HANG_GUARD_MS)
 
 
 def test_offscreen_has_no_opengl_so_the_software_view_is_used():
@@ -255,7 +269,9 @@ GL_SCRIPT = textwrap.dedent("""
 def test_the_opengl_view_draws_what_the_software_renderer_draws_under_xvfb(tmp_path):
     script = tmp_path / "gl_view.py"
     script.write_text(GL_SCRIPT)
-    env = {**os.environ, "QT_QPA_PLATFORM": "xcb"}
+    # the repository on the path: the script imports this test module, which imports tests.qt_waits
+    env = {**os.environ, "QT_QPA_PLATFORM": "xcb", "PYTHONPATH": os.pathsep.join(
+        p for p in (str(ROOT), os.environ.get("PYTHONPATH", "")) if p)}
     done = subprocess.run(["xvfb-run", "-a", sys.executable, str(script), str(Path(__file__).parent)],
                           capture_output=True, text=True, timeout=120, env=env, cwd=ROOT)
     assert done.returncode == 0, done.stderr[-2000:]

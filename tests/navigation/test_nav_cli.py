@@ -7,7 +7,6 @@ import os
 import signal
 import subprocess
 import sys
-import time
 from pathlib import Path
 
 import cv2
@@ -15,6 +14,7 @@ import pytest
 
 import navigation
 from navigation.cli import main
+from tests.signal_steps import signal_during, signal_once_working
 
 DATA = Path(navigation.__file__).parent / "data"
 
@@ -105,7 +105,7 @@ def test_bad_pose_line_via_the_module_entry_point(tmp_path):
     result = _run_cli(str(poses), "--map", MAP)
     assert result.returncode == 2
     assert result.stdout == ""
-    assert result.stderr == f"objrec-patrol: error: {poses}: line 3: y is not a number: 'four'\n"
+    assert result.stderr == f"objrec-patrol: error: {poses}:3: goals[1].y: 'four' is invalid: expected a number\n"
 
 
 @pytest.mark.realdata
@@ -125,29 +125,23 @@ def test_render_extension_is_checked(capsys):
     assert "--render out.tiff: the extension must be one of" in capsys.readouterr().err
 
 
-def test_sigint_in_realtime_shuts_down_cleanly(tmp_path):
-    """Real Ctrl-C on a real-time run: the patrol is preempted, SHUTDOWN entered, summary printed."""
+@pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM])
+def test_a_signal_on_a_realtime_run_shuts_down_cleanly(tmp_path, sig):
+    """Real Ctrl-C or SIGTERM on a real-time run: the patrol is preempted, SHUTDOWN entered, summary printed."""
     events = tmp_path / "e.jsonl"
-    proc = subprocess.Popen([sys.executable, "-m", "navigation", POSES, "--map", MAP, "--realtime",
-                             "--events", str(events)], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    try:
-        deadline = time.monotonic() + 30.0
-        while not (events.exists() and events.stat().st_size > 0) and time.monotonic() < deadline:
-            time.sleep(0.05)
-        time.sleep(1.5)
-        proc.send_signal(signal.SIGINT)
-        out, err = proc.communicate(timeout=30.0)
-    finally:
-        if proc.poll() is None:
-            proc.kill()
-    assert proc.returncode == 0, err
+    code, out, err = signal_once_working(
+        [sys.executable, "-m", "navigation", POSES, "--map", MAP, "--realtime", "--events", str(events)],
+        lambda: events.exists() and events.stat().st_size > 0, sig, after=1.5)
+    assert code == 0, err
+    assert "Traceback" not in err
     fields = summary_fields(out)
-    assert fields["outcome"] == "shutdown (SIGINT)"
+    assert fields["outcome"] == f"shutdown ({sig.name})" and fields["final state"] == "SHUTDOWN"
     sim_seconds = float(fields["simulated time"].split("(")[1].split()[0])
     assert 1.0 <= sim_seconds <= 5.0  # real time: about the 1.5 s it ran, not hundreds of seconds
     kinds = [json.loads(line) for line in Path(events).read_text().splitlines()]
     assert kinds[-1] == {"t": kinds[-1]["t"], "type": "outcome", "outcome": "shutdown"}
-    assert any(e["type"] == "preempt_requested" and e["reason"] == "SIGINT" for e in kinds)
+    assert any(e["type"] == "state_enter" and e["state"] == "SHUTDOWN" for e in kinds)
+    assert any(e["type"] == "preempt_requested" and e["reason"] == sig.name for e in kinds)
 
 
 def test_help_runs_as_a_module():
@@ -176,24 +170,22 @@ def test_missing_parent_folders_of_outputs_are_made(tmp_path, capsys):
     assert (out / "r" / "run.png").read_bytes()[:4] == b"\x89PNG"
 
 
-def test_ctrl_c_during_start_up_still_writes_the_events_and_summary(tmp_path, capsys, monkeypatch):
-    """A real SIGINT while the map loads: the patrol starts preempted and ends in SHUTDOWN, files written."""
+@pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM])
+def test_a_signal_during_start_up_still_writes_the_events_and_summary(tmp_path, capsys, monkeypatch, sig):
+    """A real signal while the map loads: the patrol starts preempted and ends in SHUTDOWN, files written, and
+    the signal's handling is given back."""
     import navigation.cli as cli
 
-    real_load_map = cli.load_map
-
-    def load_map_interrupted(path):
-        os.kill(os.getpid(), signal.SIGINT)
-        return real_load_map(path)
-
-    monkeypatch.setattr(cli, "load_map", load_map_interrupted)
+    signal_during(monkeypatch, cli, "load_map", sig)
+    before = signal.getsignal(sig)
     events = tmp_path / "e.jsonl"
     assert main([POSES, "--map", MAP, "--events", str(events)]) == 0
     fields = summary_fields(capsys.readouterr().out)
-    assert fields["outcome"] == "shutdown (SIGINT)"
+    assert fields["outcome"] == f"shutdown ({sig.name})"
     assert fields["final state"] == "SHUTDOWN"
     lines = [json.loads(line) for line in events.read_text().splitlines()]
-    assert lines[0] == {"t": 0.0, "type": "preempt_requested", "reason": "SIGINT"}
+    assert lines[0] == {"t": 0.0, "type": "preempt_requested", "reason": sig.name}
     assert lines[-1] == {"t": lines[-1]["t"], "type": "outcome", "outcome": "shutdown"}
     assert lines[-1]["t"] < 1.0
+    assert signal.getsignal(sig) is before
     assert signal.getsignal(signal.SIGINT) is signal.default_int_handler

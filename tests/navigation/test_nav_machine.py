@@ -248,10 +248,10 @@ def test_single_goal_patrol(make_patrol, goals):
 
 
 def test_second_sigint_gives_up_at_once():
-    from navigation.runner import _SigintFlag
+    from strictio.signals import StopSignals
 
     previous = signal.getsignal(signal.SIGINT)
-    with _SigintFlag() as flag:
+    with StopSignals() as flag:
         os.kill(os.getpid(), signal.SIGINT)
         assert flag.count == 1
         with pytest.raises(KeyboardInterrupt):

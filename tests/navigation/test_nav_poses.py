@@ -36,12 +36,14 @@ def test_unnormalised_quaternion_is_normalised():
 @pytest.mark.parametrize(
     ("text", "needle"),
     [
-        ("1, 2, 3\n", "line 1: expected 7 comma-separated numbers (x, y, z, qx, qy, qz, qw), got 3 in '1, 2, 3'"),
-        ("# c\n1, 2, 0, 0, 0, zero, 1\n", "line 2: qz is not a number: 'zero'"),
-        ("1, 2, 0, 0, 0, 0, 0\n", "line 1: the orientation quaternion is zero"),
-        ("1, nan, 0, 0, 0, 0, 1\n", "line 1: y is not finite: 'nan'"),
-        ("station_pose: 1, 2\n1, 2, 0, 0, 0, 0, 1\n", "line 1: expected 7"),
-        ("station_pose:\nstation_pose:\n1, 2, 0, 0, 0, 0, 1\n", "line 2: second station_pose (the first is on line 1)"),
+        ("1, 2, 3\n",
+         ":1: goals[0]: '1, 2, 3' is invalid: expected 7 comma-separated numbers (x, y, z, qx, qy, qz, qw), got 3"),
+        ("# c\n1, 2, 0, 0, 0, zero, 1\n", ":2: goals[0].qz: 'zero' is invalid: expected a number"),
+        ("1, 2, 0, 0, 0, 0, 0\n", ":1: goals[0]: '1, 2, 0, 0, 0, 0, 0' is invalid: the orientation quaternion is zero"),
+        ("1, nan, 0, 0, 0, 0, 1\n", ":1: goals[0].y: 'nan' is invalid: expected a finite number"),
+        ("station_pose: 1, 2\n1, 2, 0, 0, 0, 0, 1\n", ":1: station_pose: '1, 2' is invalid: expected 7"),
+        ("station_pose:\nstation_pose:\n1, 2, 0, 0, 0, 0, 1\n",
+         ":2: station_pose: a second station_pose (the first is on line 1)"),
         ("# nothing here\nstation_pose: 1, 2, 0, 0, 0, 0, 1\n", "no goal poses"),
     ],
 )
@@ -50,7 +52,7 @@ def test_errors_name_file_line_and_text(tmp_path, text, needle):
     path.write_text(text)
     with pytest.raises(PoseFileError) as err:
         load_poses(path)
-    assert str(err.value).startswith(f"{path}: ")
+    assert str(err.value).startswith(f"{path}:")
     assert needle in str(err.value)
 
 

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import importlib.util
 import itertools
 import math
 import sys
@@ -22,22 +21,14 @@ from navigation.laser import LaserParams  # noqa: E402
 from navigation.rerun_log import PatrolRecorder, open_patrol_rerun  # noqa: E402
 from navigation.runner import run_patrol  # noqa: E402
 
+from ..rrd_rows import read_recording  # noqa: E402
+
 DATA = Path(navigation.__file__).parent / "data"
 POSES = str(DATA / "b5203.txt")
 MAP = str(DATA / "b5203.yaml")
 SECOND = 1_000_000_000  # the sim_time timeline is in nanoseconds
 
 
-def _load_rrd_rows():
-    """The shared .rrd reader (tests/rrd_rows.py), loaded by path: tests run with --import-mode=importlib."""
-    path = Path(__file__).resolve().parents[1] / "rrd_rows.py"
-    spec = importlib.util.spec_from_file_location("rrd_rows", path)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
-
-
-read_recording = _load_rrd_rows().read_recording
 
 
 def summary_fields(text: str) -> dict[str, str]:

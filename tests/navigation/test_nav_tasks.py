@@ -10,6 +10,8 @@ import cv2
 import numpy as np
 import pytest
 
+from declare import Bool, Int, Str
+from declare.fields import Value
 from navigation.diagram import mermaid
 from navigation.geometry import Pose2D, wrap_angle
 from navigation.patrol import Monitor, PatrolMachine, patrol_transitions
@@ -20,7 +22,6 @@ from navigation.tasks import (
     PoseTask,
     StateTask,
     TaskContext,
-    TaskOption,
     TaskSpecError,
     make_task,
     register_task,
@@ -193,9 +194,9 @@ class BeepTask(PoseTask):
 
     kind = "beep"
     state = "BEEP"
-    options: ClassVar = {"times": TaskOption(1, "beeps", "integer", min=1, max=10),
-                         "fail": TaskOption(False, "fail instead", "flag"),
-                         "tone": TaskOption(None, "required tone name", "text")}
+    options: ClassVar = {"times": Int(1, "beeps", min=1, max=10),
+                         "fail": Bool(False, "fail instead"),
+                         "tone": Value(Str("", "tone name"), default=None)}
     positional = "times"
 
     def start(self, ctx: TaskContext) -> None:
@@ -221,16 +222,17 @@ def test_a_registered_task_is_built_from_mission_entries(tmp_path):
     assert isinstance(make_task({"look_around": [-30, 30]}, tmp_path), LookAroundTask)
     assert make_task({"wait": 2}, tmp_path).values["seconds"] == 2.0
     for item, message in [
-        ({"beep": {"loud": 1}}, "beep: field 'loud': unknown option (options: times, fail, tone)"),
-        ({"beep": 11}, "beep: field 'times': 11 is outside [1, 10]"),
-        ({"beep": 1.5}, "beep: field 'times': expected a whole number"),
-        ({"beep": {"fail": "yes"}}, "beep: field 'fail': expected true or false"),
-        ({"look_around": {"headings": []}}, "look_around: field 'headings': expected a non-empty list"),
-        ({"wait": -1}, "wait: field 'seconds': -1 is outside"),
-        ({"wait": True}, "wait: field 'seconds': expected a number, got True"),
-        ("dance", "unknown task 'dance' (known: beep, "),
+        ({"beep": {"loud": 1}}, "beep.loud: unknown key (allowed: times, fail, tone)"),
+        ({"beep": 11}, "beep.times: 11 is invalid: out of range, allowed int in 1..10"),
+        ({"beep": 1.5}, "beep.times: 1.5 is invalid: expected an integer, got float"),
+        ({"beep": {"fail": "yes"}}, "beep.fail: 'yes' is invalid: expected true or false, got str"),
+        ({"look_around": {"headings": []}},
+         "look_around.headings: [] is invalid: expected a non-empty list, each float in -360..360"),
+        ({"wait": -1}, "wait.seconds: -1 is invalid: out of range, allowed float in 0..86400"),
+        ({"wait": True}, "wait.seconds: True is invalid: expected a number, got bool"),
+        ("dance", "'dance' is invalid: unknown task (known: "),
         ({"wait": 1, "beep": 2}, "expected a task name or a one-key mapping"),
-        ({"photo": 3}, "photo: takes options as a mapping, got 3"),
+        ({"photo": 3}, "photo: 3 is invalid: expected a mapping of settle, depth, got int"),
     ]:
         with pytest.raises(TaskSpecError) as info:
             make_task(item, tmp_path)

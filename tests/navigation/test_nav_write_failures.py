@@ -10,12 +10,9 @@ import errno
 import json
 import os
 import re
-import resource
-import signal
 import stat
 import subprocess
 import sys
-import time
 from pathlib import Path
 
 import pytest
@@ -23,6 +20,8 @@ import pytest
 import navigation
 from navigation.events import EventLog
 from strictio import OutputError
+from tests.hostile import harness
+from tests.hostile.harness import char_device, the_one_error_line
 
 DATA = Path(navigation.__file__).parent / "data"
 PATROL = [sys.executable, "-m", "navigation.cli", str(DATA / "b5203.txt"), "--map", str(DATA / "b5203.yaml"),
@@ -30,31 +29,12 @@ PATROL = [sys.executable, "-m", "navigation.cli", str(DATA / "b5203.txt"), "--ma
 
 
 def patrol_on_full_disk(args: list[str], limit: int | None) -> tuple[subprocess.CompletedProcess[str], float]:
-    def small_disk() -> None:
-        if limit is not None:
-            resource.setrlimit(resource.RLIMIT_FSIZE, (limit, limit))
-            signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
-
-    start = time.monotonic()
-    result = subprocess.run([*PATROL, *args], capture_output=True, text=True, timeout=60, preexec_fn=small_disk)
-    return result, time.monotonic() - start
+    """objrec-patrol with every file it writes limited to ``limit`` bytes (tests/hostile/harness.py); the result
+    and its CPU seconds."""
+    run = harness.run([*PATROL, *args], Path.cwd(), preexec=harness.file_size_limit(limit), watch_files=False)
+    return run.completed(), run.cpu_seconds
 
 
-def the_one_error_line(result: subprocess.CompletedProcess[str]) -> str:
-    lines = result.stderr.splitlines()
-    assert result.returncode == 2, result.stderr
-    assert len(lines) == 1 and "Traceback" not in result.stderr, result.stderr
-    return lines[0]
-
-
-def char_device(tmp_path: Path) -> Path:
-    """A /dev/full-like node in the test folder (root only), so that a regression cannot replace the real one."""
-    node = tmp_path / "full"
-    try:
-        os.mknod(node, stat.S_IFCHR | 0o666, os.makedev(1, 7))
-    except (PermissionError, OSError) as exc:
-        pytest.skip(f"cannot make a device node here: {exc}")
-    return node
 
 
 def test_events_on_a_full_disk_keep_only_whole_lines(tmp_path):
@@ -67,7 +47,7 @@ def test_events_on_a_full_disk_keep_only_whole_lines(tmp_path):
                     "before it are kept")
     assert 0 < len(text) <= 3000 and text.endswith("\n")
     assert kept[0] == {"t": 0.0, "type": "state_enter", "state": "MONITORED_PATROL"}
-    assert seconds < 10
+    assert seconds < harness.SECONDS_LIMIT  # CPU seconds
 
 
 def test_a_diagram_on_a_full_disk_is_an_error_and_the_old_one_stays(tmp_path):

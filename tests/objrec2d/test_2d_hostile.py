@@ -6,80 +6,35 @@ from __future__ import annotations
 
 import os
 import struct
-import subprocess
-import sys
-import time
 import zlib
-from dataclasses import dataclass
 from pathlib import Path
 
 import cv2
 import numpy as np
 import pytest
 
+from tests.hostile import harness
+
 PROJECT = Path(__file__).resolve().parents[2]
-DETECT = Path(sys.executable).parent / "objrec-detect"
 PARAMS = PROJECT / "params" / "hsv_demo.yaml"
-SECONDS_LIMIT = 10.0
-MEMORY_LIMIT_MB = 500.0
+SECONDS_LIMIT = harness.SECONDS_LIMIT  # CPU seconds of the command
+MEMORY_LIMIT_MB = harness.MEMORY_LIMIT_MB
 
 
-@dataclass
-class Run:
-    code: int
-    stderr: str
-    seconds: float
-    max_rss_mb: float
-
-    @property
-    def lines(self) -> list[str]:
-        return self.stderr.splitlines()
+def detect(source: str | Path, cwd: Path, *extra: str, env: dict[str, str] | None = None) -> harness.Outcome:
+    """``objrec-detect PARAMS --source SOURCE -o out.jsonl`` in a child, measured by tests/hostile/harness.py (exit
+    code, stderr lines, CPU time, its own peak memory)."""
+    return harness.run(["objrec-detect", PARAMS, "--source", source, "-o", "out.jsonl", *extra], cwd,
+                       env=harness.child_env(env))
 
 
-#: The small process that runs a command and reports its own peak memory (see tests/peak_memory.py).
-PEAK_MEMORY = Path(__file__).resolve().parents[1] / "peak_memory.py"
-
-
-def _peak_mb(report: Path) -> float:
-    """The peak memory (MB) tests/peak_memory.py wrote for the command it ran; 0 when it wrote none."""
-    try:
-        return int(report.read_text()) / 1024.0
-    except (OSError, ValueError):
-        return 0.0
-
-
-def detect(source: str | Path, cwd: Path, *extra: str, env: dict[str, str] | None = None) -> Run:
-    """``objrec-detect PARAMS --source SOURCE -o out.jsonl`` in a child; its own peak memory from wait4."""
-    child_env = {k: v for k, v in os.environ.items() if not k.startswith("OBJREC_MAX_")}
-    child_env.update(env or {})
-    err, report = cwd / "stderr.txt", cwd / "peak.txt"
-    started = time.perf_counter()
-    with err.open("w") as stderr:
-        child = subprocess.Popen([sys.executable, str(PEAK_MEMORY), str(report),
-                                  str(DETECT), str(PARAMS), "--source", str(source), "-o", "out.jsonl", *extra],
-                                 cwd=cwd, env=child_env, stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
-                                 stderr=stderr)
-        while True:  # reaped here rather than by Popen (the wrapper reports the memory)
-            pid, status, _usage = os.wait4(child.pid, os.WNOHANG)
-            if pid:
-                break
-            if time.perf_counter() - started > 3 * SECONDS_LIMIT:
-                child.kill()
-                _pid, status, _usage = os.wait4(child.pid, 0)
-                break
-            time.sleep(0.01)
-    seconds = time.perf_counter() - started
-    child.returncode = os.waitstatus_to_exitcode(status)
-    return Run(child.returncode, err.read_text(), seconds, _peak_mb(report))
-
-
-def refused(run: Run, name: str, fragment: str) -> None:
+def refused(run: harness.Outcome, name: str, fragment: str) -> None:
     """Exit code 2, exactly one stderr line, naming the file and saying ``fragment``, in bounded time/memory."""
-    assert run.code == 2, run
+    assert run.exit_code == 2, run
     assert "Traceback" not in run.stderr, run.stderr
     assert len(run.lines) == 1, run.stderr
     assert name in run.lines[0] and fragment in run.lines[0], run.lines[0]
-    assert run.seconds < SECONDS_LIMIT and run.max_rss_mb < MEMORY_LIMIT_MB, run
+    assert run.cpu_seconds < SECONDS_LIMIT and run.max_rss_mb < MEMORY_LIMIT_MB, run
 
 
 def png_bomb(width: int, height: int) -> bytes:
@@ -163,14 +118,14 @@ def test_a_truncated_video_keeps_its_decoded_frames_and_exits_2(tmp_path):
     data = (tmp_path / "full.avi").read_bytes()
     (tmp_path / "cut.avi").write_bytes(data[: len(data) // 2])
     run = detect("cut.avi", tmp_path)
-    assert run.code == 2 and "Traceback" not in run.stderr, run
+    assert run.exit_code == 2 and "Traceback" not in run.stderr, run
     errors = [line for line in run.lines if "error:" in line]
     assert len(errors) == 1 and len(run.lines) == 1, run.stderr
     read = json_lines(tmp_path)
     assert 5 < read < 40
     assert f"cut.avi: truncated or corrupt: frame {read} of 40 cannot be decoded; {read} of 40 frames were read" \
         in errors[0]
-    assert run.seconds < SECONDS_LIMIT and run.max_rss_mb < MEMORY_LIMIT_MB
+    assert run.cpu_seconds < SECONDS_LIMIT and run.max_rss_mb < MEMORY_LIMIT_MB
 
 
 def test_a_folder_skips_each_bad_file_with_one_warning_and_exits_0(tmp_path):
@@ -183,14 +138,14 @@ def test_a_folder_skips_each_bad_file_with_one_warning_and_exits_0(tmp_path):
     (folder / "d_notes.png").write_text("not a picture")
     os.mkfifo(folder / "f_pipe.png")
     run = detect(folder, tmp_path)
-    assert run.code == 0 and "Traceback" not in run.stderr, run
+    assert run.exit_code == 0 and "Traceback" not in run.stderr, run
     assert json_lines(tmp_path) == 2
     for name, why in (("b_cut.jpg", "truncated"), ("c_bomb.png", "OBJREC_MAX_IMAGE_PIXELS"),
                       ("d_notes.png", "not a readable image"), ("f_pipe.png", "FIFO")):
         said = [line for line in run.lines if name in line]
         assert len(said) == 1 and why in said[0] and "skipped" in said[0], run.stderr
     assert not [line for line in run.lines if "good" in line or "libpng" in line or "JPEG" in line.split(":")[0]]
-    assert run.seconds < SECONDS_LIMIT and run.max_rss_mb < MEMORY_LIMIT_MB
+    assert run.cpu_seconds < SECONDS_LIMIT and run.max_rss_mb < MEMORY_LIMIT_MB
 
 
 def test_a_folder_of_nothing_readable_exits_2(tmp_path):
@@ -199,11 +154,11 @@ def test_a_folder_of_nothing_readable_exits_2(tmp_path):
     (folder / "cut.jpg").write_bytes(truncated_jpeg())
     (folder / "bomb.png").write_bytes(png_bomb(30000, 30000))
     run = detect(folder, tmp_path)
-    assert run.code == 2 and "Traceback" not in run.stderr, run
+    assert run.exit_code == 2 and "Traceback" not in run.stderr, run
     errors = [line for line in run.lines if "error:" in line]
     assert len(errors) == 1 and "no readable image in the folder: none of its 2 images could be read" in errors[0]
     assert len(run.lines) == 3  # a warning for each file, then the error
-    assert run.seconds < SECONDS_LIMIT and run.max_rss_mb < MEMORY_LIMIT_MB
+    assert run.cpu_seconds < SECONDS_LIMIT and run.max_rss_mb < MEMORY_LIMIT_MB
 
 
 def test_an_embedded_target_claiming_20000x20000_pixels_is_refused_before_decoding():

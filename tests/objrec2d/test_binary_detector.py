@@ -1,5 +1,5 @@
 """BinaryDetector: the background and cut-off blobs are not objects unless asked for, and when nothing is
-found ``last_reason`` says which rule dropped what."""
+found the result's ``reason`` says which rule dropped what."""
 
 from __future__ import annotations
 
@@ -22,12 +22,14 @@ def test_the_whole_frame_is_not_an_object_at_defaults():
     detector = BinaryDetector()
     assert cv2.arcLength(np.array([[0, 0], [WIDTH - 1, 0], [WIDTH - 1, HEIGHT - 1], [0, HEIGHT - 1]]), True) == 2236
     assert detector.max_contour_length == 5000.0  # the outline is within the length range: the border rule drops it
-    assert detector.detect(full) == []
-    assert detector.last_reason == "1 blob, none kept: 1 touching the image border (border_blobs is off)"
+    result = detector.detect(full)
+    assert result == []
+    assert result.reason == "1 blob, none kept: 1 touching the image border (border_blobs is off)"
     # With border blobs asked for, the area rule still keeps the background out (639 x 479 of 640 x 480).
     bordered = BinaryDetector(border_blobs=True)
-    assert bordered.detect(full) == []
-    assert bordered.last_reason == (
+    result = bordered.detect(full)
+    assert result == []
+    assert result.reason == (
         "1 blob, none kept: 1 covering more than max_area_fraction 0.9 of the image (smallest 100%)"
     )
     # Both rules off: the old behaviour, one object of the whole frame.
@@ -45,9 +47,10 @@ def test_a_blob_touching_any_border_is_dropped_unless_asked_for(corner, where):
     cv2.rectangle(image, (x, y), (x + 39, y + 39), 255, -1)  # a 40 x 40 square flush with the {where} edge
     cv2.rectangle(image, (300, 200), (339, 239), 255, -1)  # and one clear of every edge
     detector = BinaryDetector()
-    (kept,) = detector.detect(image)
+    result = detector.detect(image)
+    (kept,) = result
     assert kept.polygon.centroid() == pytest.approx((319.5, 219.5)), where
-    assert detector.last_reason is None  # it found something
+    assert result.reason is None  # it found something
     both = BinaryDetector(border_blobs=True).detect(image)
     assert sorted(round(o.polygon.centroid()[0]) for o in both) == sorted([x + 20, 320]), where
 
@@ -72,14 +75,16 @@ def test_the_reason_names_each_rule_with_counts_and_the_nearest_value():
     cv2.rectangle(image, (400, 100), (404, 104), 255, -1)  # outline 16 px
     cv2.rectangle(image, (0, 300), (59, 359), 255, -1)  # a border blob
     detector = BinaryDetector()
-    assert detector.detect(image) == []
-    assert detector.last_reason == (
+    result = detector.detect(image)
+    assert result == []
+    assert result.reason == (
         "4 blobs, none kept: 3 shorter than min_contour_length 40 px (longest 16 px), "
         "1 touching the image border (border_blobs is off)"
     )
     long_outline = BinaryDetector(min_contour_length=10.0, max_contour_length=12.0)
-    assert long_outline.detect(image) == []
-    assert long_outline.last_reason == (
+    result = long_outline.detect(image)
+    assert result == []
+    assert result.reason == (
         "4 blobs, none kept: 2 shorter than min_contour_length 10 px (longest 0 px), "
         "2 longer than max_contour_length 12 px (shortest 16 px)"
     )
@@ -87,12 +92,13 @@ def test_the_reason_names_each_rule_with_counts_and_the_nearest_value():
 
 def test_an_empty_mask_says_so_and_a_find_clears_the_reason():
     detector = BinaryDetector()
-    assert detector.last_reason is None  # before any frame
-    assert detector.detect(mask()) == []
-    assert detector.last_reason == "no blob: the mask has no non-zero pixel (the filters before let nothing through)"
+    result = detector.detect(mask())
+    assert result == []
+    assert result.reason == "no blob: the mask has no non-zero pixel (the filters before let nothing through)"
     image = mask()
     cv2.circle(image, (320, 240), 30, 255, -1)
-    assert len(detector.detect(image)) == 1 and detector.last_reason is None
+    found = detector.detect(image)
+    assert len(found) == 1 and found.reason is None
 
 
 def test_the_parameters_say_what_they_do():

@@ -31,9 +31,9 @@ def test_box_is_found_in_the_scene(box, box_in_scene, require_feature, feature_t
     detector.set_target(box)
     assert detector.target.rect == detector.target.roi  # selected whole: no margin to add
     objects = detector.detect(box_in_scene)
-    result = detector.last_result
-    assert result.status is DetectionStatus.FOUND, detector.last_reason
-    assert detector.last_reason is None
+    result = objects.details[0]
+    assert result.status is DetectionStatus.FOUND, objects.reason
+    assert objects.reason is None
     assert result.inlier_count >= 15
     assert [o.name for o in objects] == ["box"]
     polygon = np.array(objects[0].polygon.xy())
@@ -54,10 +54,11 @@ def test_box_is_not_found_in_an_image_without_it(box, images):
     detector = FeatureDetector(feature_type="SIFT")
     detector.set_target(box)
     fruits = cv2.imread(str(images / "fruits.jpg"))
-    assert detector.detect(fruits) == []
-    assert detector.last_status in {
+    result = detector.detect(fruits)
+    assert result == []
+    assert result.details[0].status in {
         DetectionStatus.TOO_FEW_MATCHES,
         DetectionStatus.TOO_FEW_INLIERS,
         DetectionStatus.DEGENERATE_POLYGON,
     }
-    assert detector.last_reason
+    assert result.reason

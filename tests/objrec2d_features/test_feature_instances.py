@@ -82,8 +82,8 @@ def test_three_pasted_copies_are_all_found_within_3_px(three_copies, feature_typ
     assert sorted(index for index, _ in matched) == [0, 1, 2], matched  # each copy once: no duplicates
     assert max(error for _, error in matched) < 3.0, matched
     assert [o.name for o in objects] == ["poster"] * 3
-    result = detector.last_result
-    assert result.found and detector.last_reason is None and len(result.instances) == 3
+    result = objects.details[0]
+    assert result.found and objects.reason is None and len(result.instances) == 3
     counts = [instance.inlier_count for instance in result.instances]
     assert counts == sorted(counts, reverse=True) and min(counts) >= 40  # best supported first
     assert result.inlier_count == counts[0]  # the record's own fields describe the first copy
@@ -106,9 +106,10 @@ def test_max_instances_caps_the_copies_and_says_why_it_stopped(three_copies):
     assert len(one) == 1 and one[0][1] < 3.0
     more = FeatureDetector(max_instances=5)
     more.set_target(POSTER)
-    assert len(more.detect(scene)) == 3
-    assert more.last_result.next_reason.startswith("too few matches: ")  # why no 4th copy
-    assert more.last_reason is None  # something was found
+    three = more.detect(scene)
+    assert len(three) == 3
+    assert three.details[0].next_reason.startswith("too few matches: ")  # why no 4th copy
+    assert three.reason is None  # something was found
 
 
 def test_a_copy_found_again_is_not_reported_twice():
@@ -155,14 +156,15 @@ def test_too_few_iterations_miss_a_model_the_defaults_find():
     found = FeatureDetector(ratio=0.95)
     found.set_target(POSTER)
     objects = found.detect(scene)
-    result = found.last_result
-    assert len(objects) == 1, found.last_reason
+    result = objects.details[0]
+    assert len(objects) == 1, objects.reason
     assert corner_error(np.array(objects[0].polygon.xy()), truth) < 3.0
     assert result.inlier_count / len(result.matches) < 0.2  # a scene with few inliers indeed
     few = FeatureDetector(ratio=0.95, homography_max_iterations=50)
     few.set_target(POSTER)
-    assert few.detect(scene) == []
-    assert few.last_status in {DetectionStatus.TOO_FEW_INLIERS, DetectionStatus.NO_HOMOGRAPHY}, few.last_reason
+    missed = few.detect(scene)
+    assert missed == []
+    assert missed.details[0].status in {DetectionStatus.TOO_FEW_INLIERS, DetectionStatus.NO_HOMOGRAPHY}, missed.reason
 
 
 def test_the_estimator_gets_the_iterations_and_confidence(monkeypatch, three_copies):
@@ -207,14 +209,16 @@ def test_orb_defaults_cover_the_box_with_room_to_spare(box, box_in_scene):
     detector.set_target(box)
     coverages = []
     for _ in range(5):
-        assert len(detector.detect(box_in_scene)) == 1, detector.last_reason
-        coverages.append(detector.last_result.coverage)
+        still = detector.detect(box_in_scene)
+        assert len(still) == 1, still.reason
+        coverages.append(still.details[0].coverage)
     assert len(set(coverages)) == 1 and coverages[0] >= 0.2, coverages
-    assert detector.last_result.inlier_count >= 40
+    assert still.details[0].inlier_count >= 40
     shaken = []
     for view in jittered(box_in_scene, 16):
-        assert len(detector.detect(view)) == 1, detector.last_reason
-        shaken.append(detector.last_result.coverage)
+        moved = detector.detect(view)
+        assert len(moved) == 1, moved.reason
+        shaken.append(moved.details[0].coverage)
     assert min(shaken) >= 0.13 and np.median(shaken) >= 0.2, shaken
 
 
@@ -230,8 +234,9 @@ def test_every_reason_for_finding_nothing(three_copies, monkeypatch):
     # No target.
     empty = FeatureDetector()
     assert empty.ready() == "no target: select one in objrec-define (drag a rectangle around the object)"
-    assert empty.detect(scene) == [] and empty.last_status is DetectionStatus.NO_TARGET
-    assert empty.last_reason == empty.ready()
+    result = empty.detect(scene)
+    assert result == [] and result.details[0].status is DetectionStatus.NO_TARGET
+    assert result.reason == empty.ready()
     # A target that has no keypoints with the current settings.
     faint = (POSTER.astype(np.float32) * 0.2 + 128 * 0.8).astype(np.uint8)
     plain = FeatureDetector()
@@ -242,8 +247,9 @@ def test_every_reason_for_finding_nothing(three_copies, monkeypatch):
         "the target has no ORB keypoints with these settings, 10 are needed (min_matches/min_inliers): "
         "select a textured area"
     )
-    assert plain.detect(scene) == [] and plain.last_status is DetectionStatus.NO_TARGET
-    assert plain.last_reason == "the target has no ORB keypoints with these settings; select a textured area"
+    result = plain.detect(scene)
+    assert result == [] and result.details[0].status is DetectionStatus.NO_TARGET
+    assert result.reason == "the target has no ORB keypoints with these settings; select a textured area"
     # Fewer target keypoints than a detection needs.
     demanding = detector_on_poster()
     count = len(demanding.target)
@@ -256,47 +262,54 @@ def test_every_reason_for_finding_nothing(three_copies, monkeypatch):
     blank = np.full((480, 640, 3), 90, np.uint8)
     detector = detector_on_poster()
     assert detector.ready() is None
-    assert detector.detect(blank) == [] and detector.last_status is DetectionStatus.TOO_FEW_KEYPOINTS
-    assert detector.last_reason == (
+    result = detector.detect(blank)
+    assert result == [] and result.details[0].status is DetectionStatus.TOO_FEW_KEYPOINTS
+    assert result.reason == (
         "too few keypoints in the frame: 0 ORB keypoints, min_matches is 10 (a plain, dark or blurred frame?)"
     )
     # Too few matches.
     choosy = detector_on_poster(min_matches=500)
-    assert choosy.detect(scene) == [] and choosy.last_status is DetectionStatus.TOO_FEW_MATCHES
-    matches, keypoints = len(choosy.last_result.matches), len(choosy.last_result.frame_points)
+    result = choosy.detect(scene)
+    assert result == [] and result.details[0].status is DetectionStatus.TOO_FEW_MATCHES
+    matches, keypoints = len(result.details[0].matches), len(result.details[0].frame_points)
     assert 0 < matches < 500 and keypoints == 1000
-    assert choosy.last_reason == f"too few matches: {matches} of 1000 keypoints, min_matches is 500"
+    assert result.reason == f"too few matches: {matches} of 1000 keypoints, min_matches is 500"
     # Too few inliers.
     found = detector_on_poster()
-    assert found.detect(scene)
-    inliers, matches = found.last_result.inlier_count, len(found.last_result.matches)
+    attempt = found.detect(scene)
+    assert attempt
+    inliers, matches = attempt.details[0].inlier_count, len(attempt.details[0].matches)
     strict = detector_on_poster(min_inliers=inliers + 1)
-    assert strict.detect(scene) == [] and strict.last_status is DetectionStatus.TOO_FEW_INLIERS
-    assert strict.last_reason == f"too few inliers: {inliers} of {matches} matches, min_inliers is {inliers + 1}"
+    result = strict.detect(scene)
+    assert result == [] and result.details[0].status is DetectionStatus.TOO_FEW_INLIERS
+    assert result.reason == f"too few inliers: {inliers} of {matches} matches, min_inliers is {inliers + 1}"
     # Inliers bunched.
     bunched = detector_on_poster(min_inlier_coverage=0.95)
-    assert bunched.detect(scene) == [] and bunched.last_status is DetectionStatus.BUNCHED_INLIERS
-    coverage = bunched.last_result.coverage
-    assert bunched.last_reason == f"inliers bunched: they span {coverage:.0%} of the target, min_inlier_coverage is 95%"
+    result = bunched.detect(scene)
+    assert result == [] and result.details[0].status is DetectionStatus.BUNCHED_INLIERS
+    coverage = result.details[0].coverage
+    assert result.reason == f"inliers bunched: they span {coverage:.0%} of the target, min_inlier_coverage is 95%"
     # Degenerate outlines: too small, too large, squashed.
     small = detector_on_poster(min_area=1e6)
-    assert small.detect(scene) == [] and small.last_status is DetectionStatus.DEGENERATE_POLYGON
-    assert small.last_reason.startswith("degenerate polygon: area ")
-    assert small.last_reason.endswith("is below min_area 1000000 px²")
-    large = detector_on_poster(max_area_fraction=0.01)
-    assert large.detect(scene) == []
-    assert large.last_reason.startswith("degenerate polygon: area ")
-    assert large.last_reason.endswith("is more than 0.01 times the frame's")
-    squashed = detector_on_poster(min_corner_angle=89.0)
-    assert squashed.detect(scene) == []
-    assert squashed.last_reason.startswith("degenerate polygon: a corner angle of ")
-    assert squashed.last_reason.endswith("lies outside 89°..91° (squashed)")
+    result = small.detect(scene)
+    assert result == [] and result.details[0].status is DetectionStatus.DEGENERATE_POLYGON
+    assert result.reason.startswith("degenerate polygon: area ")
+    assert result.reason.endswith("is below min_area 1000000 px²")
+    large = detector_on_poster(max_area_fraction=0.01).detect(scene)
+    assert large == []
+    assert large.reason.startswith("degenerate polygon: area ")
+    assert large.reason.endswith("is more than 0.01 times the frame's")
+    squashed = detector_on_poster(min_corner_angle=89.0).detect(scene)
+    assert squashed == []
+    assert squashed.reason.startswith("degenerate polygon: a corner angle of ")
+    assert squashed.reason.endswith("lies outside 89°..91° (squashed)")
     # No homography at all.
     monkeypatch.setattr(cv2, "findHomography", lambda *args, **kwargs: (None, None))
     hopeless = detector_on_poster()
-    assert hopeless.detect(scene) == [] and hopeless.last_status is DetectionStatus.NO_HOMOGRAPHY
-    matches = len(hopeless.last_result.matches)
-    assert hopeless.last_reason == (
+    result = hopeless.detect(scene)
+    assert result == [] and result.details[0].status is DetectionStatus.NO_HOMOGRAPHY
+    matches = len(result.details[0].matches)
+    assert result.reason == (
         f"no homography fits the {matches} matches (USAC_MAGSAC, homography_max_iterations is 20000)"
     )
 

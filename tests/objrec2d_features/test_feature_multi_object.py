@@ -47,12 +47,12 @@ def test_two_targets_in_one_pipeline_file(images, tmp_path):
     scene = cv2.imread(str(images / "multi_scene.jpg"))
     array = DetectionDirector(system).process(scene)
     found = {o.name: np.array(o.polygon.xy()) for o in array.objects}
-    assert sorted(found) == sorted(REFERENCE), [d.last_reason for d in system.detectors]
+    assert sorted(found) == sorted(REFERENCE), system.process(scene).reasons
     for name, polygon in found.items():
         assert corner_error(polygon, REFERENCE[name]) < 8.0, name
         assert overlap(polygon, REFERENCE[name]) > 0.9, name
     for detector in system.detectors:
-        assert detector.last_result.inlier_count >= 30
+        assert detector.detect(scene).details[0].inlier_count >= 30
 
 
 @pytest.mark.parametrize("name", list(REFERENCE))
@@ -65,4 +65,4 @@ def test_orb_finds_a_crop_where_it_is_or_not_at_all(images, name):
     if objects:
         assert overlap(np.array(objects[0].polygon.xy()), REFERENCE[name]) > 0.85
     else:
-        assert detector.last_reason
+        assert objects.reason

@@ -270,26 +270,26 @@ def test_each_failure_has_its_status_and_reason(poster):
     _, _, frame = poster
     blank = np.full_like(frame, 128)
     detector = selected(poster)
-    assert len(detector.detect(frame)) == 1 and detector.last_status is DetectionStatus.FOUND
-    assert detector.detect(blank) == []
-    assert detector.last_status is DetectionStatus.TOO_FEW_KEYPOINTS
-    assert detector.last_reason == (
+    found = detector.detect(frame)
+    assert len(found) == 1 and found.details[0].status is DetectionStatus.FOUND
+    result = detector.detect(blank)
+    assert result == []
+    assert result.details[0].status is DetectionStatus.TOO_FEW_KEYPOINTS
+    assert result.reason == (
         "too few keypoints in the frame: 0 ORB keypoints, min_matches is 10 (a plain, dark or blurred frame?)"
     )
-    found = selected(poster)
-    found.detect(frame)
-    inliers = found.last_result.inlier_count
-    demanding = selected(poster, min_inliers=inliers + 1, min_matches=4)
-    assert demanding.detect(frame) == [] and demanding.last_status is DetectionStatus.TOO_FEW_INLIERS
-    assert f"too few inliers: {inliers} of" in demanding.last_reason
-    small = selected(poster, min_area=1e6)
-    assert small.detect(frame) == [] and small.last_status is DetectionStatus.DEGENERATE_POLYGON
-    assert small.last_reason.startswith("degenerate polygon: area")
-    assert small.last_result.quadrilateral is not None  # kept for the debug view
-    spread = selected(poster, min_inlier_coverage=1.0)
-    assert spread.detect(frame) == [] and spread.last_status is DetectionStatus.BUNCHED_INLIERS
-    assert FeatureDetector().detect(frame) == []
-    assert FeatureDetector().last_status is None  # a new detector has seen nothing
+    inliers = selected(poster).detect(frame).details[0].inlier_count
+    demanding = selected(poster, min_inliers=inliers + 1, min_matches=4).detect(frame)
+    assert demanding == [] and demanding.details[0].status is DetectionStatus.TOO_FEW_INLIERS
+    assert f"too few inliers: {inliers} of" in demanding.reason
+    small = selected(poster, min_area=1e6).detect(frame)
+    assert small == [] and small.details[0].status is DetectionStatus.DEGENERATE_POLYGON
+    assert small.reason.startswith("degenerate polygon: area")
+    assert small.details[0].quadrilateral is not None  # kept for the debug view
+    spread = selected(poster, min_inlier_coverage=1.0).detect(frame)
+    assert spread == [] and spread.details[0].status is DetectionStatus.BUNCHED_INLIERS
+    untrained = FeatureDetector().detect(frame)
+    assert untrained == [] and untrained.details[0].status is DetectionStatus.NO_TARGET
 
 
 def test_a_grey_frame_and_a_colour_frame_give_the_same_result(poster):

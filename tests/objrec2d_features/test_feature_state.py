@@ -131,9 +131,10 @@ def test_no_target_saves_no_state_and_loading_none_clears_it(frames, scene, tmp_
     assert "state" not in yaml.safe_load((tmp_path / "empty.yaml").read_text())["pipeline"][0]
     loaded = build_system(tmp_path / "empty.yaml").detectors[0]
     assert loaded.target is None
-    assert loaded.detect(frames[1][0]) == [] and loaded.last_status is DetectionStatus.NO_TARGET
-    assert loaded.last_reason == "no target: select one in objrec-define (drag a rectangle around the object)"
-    assert loaded.ready() == loaded.last_reason
+    result = loaded.detect(frames[1][0])
+    assert result == [] and result.details[0].status is DetectionStatus.NO_TARGET
+    assert result.reason == "no target: select one in objrec-define (drag a rectangle around the object)"
+    assert loaded.ready() == result.reason
     running = poster_detector(frames, scene)
     ParameterStorage(RecognitionSystem([running])).load_parameters(tmp_path / "empty.yaml")
     assert running.target is None

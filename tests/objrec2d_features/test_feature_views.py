@@ -50,7 +50,7 @@ def test_outliers_are_drawn_in_their_own_colour(scene_frames):
     detector = FeatureDetector(ratio_test=False)  # keeps ambiguous matches, many of them wrong
     detector.process_area_selection(Rect(*scene.target.reference_rect), first)
     objects = detector.detect(frame)
-    result = detector.last_result
+    result = objects.details[0]
     assert (~result.inliers).sum() > 50
     assert colour_pixels(detector.render_debug(frame, objects), debug.OUTLIER) > 500
 

@@ -5,6 +5,7 @@ from __future__ import annotations
 import hashlib
 import os
 import struct
+import subprocess
 import sys
 
 import numpy as np
@@ -187,3 +188,57 @@ def test_a_save_replaces_the_file_whole_and_a_failed_one_leaves_it(tmp_path) -> 
     assert read_pcd(path).width == 30 and sorted(p.name for p in tmp_path.iterdir()) == ["scan.pcd", "taken.pcd"]
     with pytest.raises(ValueError, match="unknown PCD encoding 'lzf'"):
         write_pcd(path, _plane(2, 2), "lzf")
+
+
+# -- PLY (objrec3d/ply.py): read by NumPy through strictio, never by Open3D ------------------------------------------
+PLY_POINTS = np.array([[0.5, -1.25, 2.0], [1e-3, 3.5, -7.75], [10.0, 0.0, 0.125]], np.float32)
+PLY_COLOURS = np.array([[255, 0, 10], [1, 2, 3], [128, 64, 32]], np.uint8)
+
+
+def _ply_file(fmt: str, float_colours: bool = False) -> bytes:
+    colour_type = "float" if float_colours else "uchar"
+    head = ["ply", f"format {fmt} 1.0", "comment made by the test", "element vertex 3", "property float x",
+            "property float y", "property float z", *(f"property {colour_type} {c}" for c in ("red", "green", "blue")),
+            "property double quality", "element face 0", "property list uchar int vertex_indices", "end_header"]
+    colours = PLY_COLOURS / 255.0 if float_colours else PLY_COLOURS
+    if fmt == "ascii":
+        rows = [" ".join([*map(repr, map(float, p)), *map(str, c), "0.5"]) for p, c in zip(PLY_POINTS, colours,
+                                                                                       strict=True)]
+        body = ("\n".join(rows) + "\n").encode("ascii")
+    else:
+        order = "<" if fmt == "binary_little_endian" else ">"
+        colour_code = "f" if float_colours else "B"
+        body = b"".join(struct.pack(f"{order}fff{colour_code * 3}d", *map(float, p), *c.tolist(), 0.5)
+                        for p, c in zip(PLY_POINTS, colours, strict=True))
+    return ("\n".join(head) + "\n").encode("ascii") + body
+
+
+@pytest.mark.parametrize("fmt", ["ascii", "binary_little_endian", "binary_big_endian"])
+@pytest.mark.parametrize("float_colours", [False, True])
+def test_ply_vertices_and_colours_read_in_every_format(tmp_path, fmt: str, float_colours: bool) -> None:
+    from objrec3d.ply import read_ply
+
+    path = tmp_path / "cloud.ply"
+    path.write_bytes(_ply_file(fmt, float_colours))
+    cloud = read_ply(path)
+    assert np.array_equal(cloud.points.reshape(-1, 3), PLY_POINTS)
+    assert np.array_equal(cloud.colors.reshape(-1, 3), PLY_COLOURS)
+
+
+def test_a_ply_with_a_short_binary_body_names_the_bytes_missing(tmp_path) -> None:
+    from objrec3d.ply import read_ply
+
+    path = tmp_path / "short.ply"
+    path.write_bytes(_ply_file("binary_little_endian")[:-10])
+    with pytest.raises(CloudFileError, match=r"short\.ply: truncated: 59 bytes of element data, 3 vertices need 69"):
+        read_ply(path)
+
+
+def test_reading_a_ply_loads_no_open3d(tmp_path) -> None:
+    path = tmp_path / "cloud.ply"
+    path.write_bytes(_ply_file("binary_little_endian"))
+    code = ("import sys; from objrec3d import read_cloud; cloud = read_cloud(sys.argv[1]); "
+            "print(len(cloud.points.reshape(-1, 3)), 'open3d' in sys.modules)")
+    result = subprocess.run([sys.executable, "-c", code, str(path)], capture_output=True, text=True, timeout=300,
+                            check=False)
+    assert result.stdout.split() == ["3", "False"], result.stderr

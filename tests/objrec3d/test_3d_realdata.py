@@ -61,8 +61,9 @@ def test_office1_holds_no_cylinder_and_no_sphere_at_defaults(clouds, shape: str)
     assert window.count_valid() == cloud.count_valid() > 250_000  # the window is not empty: it is everything
     detector = ShapeDetector(shape=shape, max_objects=3)
     system = RecognitionSystem([DistanceFilter(max_distance=OFFICE_WINDOW), PlaneRemovalFilter(), detector])
-    assert system.process(cloud).objects == []
-    assert detector.last_reason  # and it says why
+    result = system.process(cloud)
+    assert result.objects == []
+    assert result.reasons[detector.id]  # and it says why
 
 
 def test_milk_carton_scene_runs(clouds) -> None:

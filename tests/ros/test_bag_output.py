@@ -7,10 +7,10 @@ from __future__ import annotations
 import dataclasses
 import json
 import os
-import resource
 import signal
 import subprocess
 import sys
+import tempfile
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -33,6 +33,7 @@ from objrec_ros.msgdefs import MessageDefinitionError
 from objrec_ros.output import InputCopy, open_detection_writer, output_format
 
 DETECT = [sys.executable, "-m", "objrec_apps.detect"]
+PEAK_MEMORY = Path(__file__).resolve().parents[1] / "peak_memory.py"
 HSV, SHAPE = "params/hsv_demo.yaml", "params/shape_demo.yaml"
 RUNS = {HSV: "demo:frames=5", SHAPE: "demo:frames=2"}
 TOPICS = {HSV: "/objrec/coloured_object", SHAPE: "/objrec/shape"}
@@ -225,7 +226,7 @@ def test_a_stop_signal_leaves_a_complete_file(project_root, tmp_path):
     out = tmp_path / "endless.mcap"
     process = subprocess.Popen([*DETECT, HSV, "-s", "demo", "-o", str(out)], cwd=project_root,
                                stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    deadline = time.monotonic() + 60
+    deadline = time.monotonic() + 180  # a hang guard, never a speed bound
     while not list(tmp_path.glob(".endless.mcap.*.tmp")):  # the writer is open (and the handlers are set)
         assert process.poll() is None and time.monotonic() < deadline
         time.sleep(0.05)
@@ -517,16 +518,20 @@ def test_a_folder_holding_other_files_is_not_replaced(project_root, tmp_path):
     assert [p.name for p in folder.iterdir()] == ["holiday.png"]
 
 
-def _limit_file_size() -> None:
-    signal.signal(signal.SIGXFSZ, signal.SIG_IGN)  # a write past the limit fails (EFBIG) instead of killing
-    resource.setrlimit(resource.RLIMIT_FSIZE, (4096, 4096))
+def full_disk(args: list[str], limit: int) -> list[str]:
+    """``args`` run with every file limited to ``limit`` bytes (writes past it fail with EFBIG), the limit set
+    by tests/peak_memory.py in its own fork: a ``preexec_fn`` here would run Python between fork and exec in
+    this process, which has threads once rerun-sdk is imported, and can deadlock the child."""
+    report = Path(tempfile.mkdtemp(prefix="peak-")) / "peak"
+    return [sys.executable, str(PEAK_MEMORY), "--file-size-limit", str(limit), str(report), *args]
 
 
 @pytest.mark.parametrize("name", ["full.mcap", "full.bag"])
 def test_a_write_that_fails_midway_leaves_the_earlier_file_untouched(project_root, tmp_path, name):
     out = tmp_path / name
     out.write_bytes(b"an earlier output")
-    result = run([HSV, "-s", "demo:frames=5", "-o", str(out)], project_root, preexec_fn=_limit_file_size)
+    result = subprocess.run(full_disk([*DETECT, HSV, "-s", "demo:frames=5", "-o", str(out)], 4096),
+                            capture_output=True, text=True, cwd=project_root, timeout=180)
     assert_one_line_error(result, f"{out}: cannot be written: File too large")
     assert out.read_bytes() == b"an earlier output"
     assert sorted(p.name for p in tmp_path.iterdir()) == [name]

@@ -189,10 +189,10 @@ def test_truncated_jpegs_and_pngs_are_told_from_whole_ones():
 
 def test_many_tiny_segments_end_in_bounded_time():
     data = b"\xff\xd8" + b"\xff\xfe\x00\x02" * 200_000 + b"\xff\xc0\x00\x0b\x08\x00\x10\x00\x10\x01\x01\x11\x00"
-    started = time.perf_counter()
+    started = time.thread_time()  # CPU time of this thread: a loaded machine cannot fail it
     with pytest.raises(InputError, match="no image data within the first 65,536 markers"):
         image_size(data)
-    assert time.perf_counter() - started < 2.0
+    assert time.thread_time() - started < 2.0
 
 
 MAGICS = [b"\x89PNG\r\n\x1a\n\x00\x00\x00\x0dIHDR", b"\xff\xd8", b"\xff\xd8\xff\xe1", b"BM", b"II*\x00", b"MM\x00*",

@@ -2,11 +2,12 @@
 
 from __future__ import annotations
 
-from typing import ClassVar
+from typing import Any, ClassVar
 
 import numpy as np
 
 from objrec_core import Choice, DetectedObjectArray, Detector, Filter, Float, Int, Ordered
+from objrec_core.modules import Detections
 
 from .kind import SignalPeak, SignalPeakArray
 
@@ -50,11 +51,12 @@ class PeakDetector(Detector):
                        soft_max=200)
     levels = Ordered("threshold", "ceiling", strict=True, why="no peak could be reported")
 
-    def detect(self, frame: np.ndarray) -> list[SignalPeak]:
+    def detect(self, frame: np.ndarray) -> Detections:
+        """The peaks, or why there are none: the reason travels with the result (no state kept here)."""
         p = self.params
         x = np.asarray(frame, dtype=np.float64)
         if x.size < 3:
-            return []
+            return Detections([], f"{x.size} samples: a peak needs a sample on each side")
         inner = x[1:-1]
         # >= on the left, > on the right: a flat top counts once, at its last sample. NaN compares false.
         peak = (inner >= x[:-2]) & (inner > x[2:]) & (inner > p.threshold) & (inner <= p.ceiling)
@@ -68,4 +70,16 @@ class PeakDetector(Detector):
             kept.append(int(index))
             taken[max(0, index - p.min_distance + 1):index + p.min_distance] = True
         name = self.object_name
-        return [SignalPeak(name, index, float(x[index])) for index in sorted(kept)]
+        peaks = [SignalPeak(name, index, float(x[index])) for index in sorted(kept)]
+        return Detections(peaks, None if peaks else self._reason(x, p))
+
+    @staticmethod
+    def _reason(x: np.ndarray, p: Any) -> str:
+        """Why a frame has no peak, with the number to tune by."""
+        inner = x[1:-1]
+        finite = inner[np.isfinite(inner)]
+        if finite.size == 0:
+            return "no finite sample"
+        if finite.max() <= p.threshold:
+            return f"no sample above threshold {p.threshold:g} (highest {finite.max():.3g})"
+        return f"every sample above threshold {p.threshold:g} is above ceiling {p.ceiling:g} or on a slope"
