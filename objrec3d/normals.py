@@ -177,9 +177,9 @@ def neighbourhood_radius(points: np.ndarray, k: int = 30, sample: int = 2000,
     return max(spacing * np.sqrt(k / np.pi), 8.0 * noise)
 
 
-def adaptive_normals(points: np.ndarray, k: int = 30, origin: np.ndarray | None = None, radius: float = 0.0
+def adaptive_normals(points: np.ndarray, k: int = 30, origin: np.ndarray | None = None, radius: float | None = None
                      ) -> np.ndarray:
-    """Normals of unorganized points over a neighbourhood of ``radius`` (0: ``neighbourhood_radius``).
+    """Normals of unorganized points over a neighbourhood of ``radius`` (None: ``neighbourhood_radius``).
 
     The points are first averaged in cubic cells of side radius / sqrt(k / pi), so about ``k`` cell means lie
     within ``radius`` of any point however dense the cloud; each normal is the PCA of the ``k`` cell means
@@ -188,7 +188,7 @@ def adaptive_normals(points: np.ndarray, k: int = 30, origin: np.ndarray | None 
     points = np.asarray(points, dtype=np.float64)
     if points.shape[0] < 3 or no_surface(points):  # one spot or a line: no neighbourhood search needed to see it
         return np.full((points.shape[0], 3), np.nan, dtype=np.float32)
-    radius = radius if radius > 0 else neighbourhood_radius(points, k)
+    radius = radius if radius else neighbourhood_radius(points, k)
     cell = radius / np.sqrt(max(k, 3) / np.pi)
     if cell <= 0:  # fewer than four distinct points
         return knn_normals(distinct_points(points), k, origin, at=points)

@@ -94,9 +94,10 @@ class ShapeDetector(CloudDetector):
                         "is twice that: keep it well under an object's radius in pixels)", min=1,
                         max=50)
     normal_neighbours = Int(30, "unorganized clouds: neighbours (cell means) per normal", min=3, max=200)
-    normal_radius = Float(0.0, "unorganized clouds: radius of a normal's neighbourhood, metres; 0 chooses it from "
-                          "the data (about normal_neighbours points at the median spacing, and at least eight times "
-                          "the noise)", min=0.0, max=1.0, soft_max=0.05, step=0.001)
+    normal_radius = Float(None, "unorganized clouds: radius of a normal's neighbourhood, metres; none chooses it "
+                          "from the data (about normal_neighbours points at the median spacing, and at least eight "
+                          "times the noise)", min=0.0, min_open=True, max=1.0, soft_max=0.05, step=0.001,
+                          optional=True, deprecated={0.0: None})
     random_seed = Int(0, "seed of the random draws, reset for every cloud: the same cloud gives the same "
                       "objects", min=0, max=2**31 - 1)
 
