@@ -443,11 +443,18 @@ class Int(_Number):
     def invalid_examples(self) -> list[tuple[str, Any]]:
         bad: list[tuple[str, Any]] = []
         if self.min is not None:
-            bad.append(("the excluded minimum", int(self.min)) if self.min_open
-                       else ("one below the hard minimum", int(self.min) - 1))
+            low = int(self.min) if self.min_open else int(self.min) - 1
+            while self.is_deprecated(low):  # an old sentinel just outside (frames=0) is accepted: go past it
+                low -= 1
+            bad.append(("the excluded minimum", low) if low == self.min else
+                       ("one below the hard minimum", low) if low == self.min - 1 else ("below the hard minimum", low))
         if self.max is not None:
-            bad.append(("the excluded maximum", int(self.max)) if self.max_open
-                       else ("one above the hard maximum", int(self.max) + 1))
+            high = int(self.max) if self.max_open else int(self.max) + 1
+            while self.is_deprecated(high):
+                high += 1
+            bad.append(("the excluded maximum", high) if high == self.max else
+                       ("one above the hard maximum", high) if high == self.max + 1 else
+                       ("above the hard maximum", high))
         step = self.enforced_step
         if step is not None:
             off = self.step_origin + 1
@@ -508,9 +515,13 @@ class Float(_Number):
         if self.min is not None:
             bad.append(("the excluded minimum", float(self.min)) if self.min_open
                        else ("just below the hard minimum", math.nextafter(float(self.min), -math.inf)))
+            if self.is_deprecated(bad[-1][1]):  # an old sentinel there (end=0) is accepted: one below it is not
+                bad.append(("below the hard minimum", float(self.min) - 1.0))
         if self.max is not None:
             bad.append(("the excluded maximum", float(self.max)) if self.max_open
                        else ("just above the hard maximum", math.nextafter(float(self.max), math.inf)))
+            if self.is_deprecated(bad[-1][1]):
+                bad.append(("above the hard maximum", float(self.max) + 1.0))
         bad += [("text for a number", str(self.example())), ("a bool", True), ("NaN", math.nan),
                 ("+inf", math.inf), ("-inf", -math.inf)]
         return [b for b in bad if not self.is_deprecated(b[1])] + super().invalid_examples()

@@ -162,9 +162,9 @@ def test_a_whole_source_check_reports_what_it_did(source_specs):
     assert report.seeks == 3  # frames 0, 1 and 2 of three, each started at with frames_from
     assert report.frames >= 3 * 3
     demo = check_source("demo:frames=3", kind="2d")
-    # seed: -1, 2147483648, many, nothing, 1.5; frames: many, nothing, 1.5 (its 0 is the deprecated 'endless')
+    # seed: -1, 2147483648, many, nothing, 1.5; frames: -1 (its 0 is the deprecated 'endless'), many, nothing, 1.5
     with open_source("demo:frames=1", "2d") as opened:
-        assert demo.refused == invalid_texts(type(opened)) == 8
+        assert demo.refused == invalid_texts(type(opened)) == 9
     assert demo.seeks == 0  # the demo scene is not seekable, and says so
 
 

@@ -171,7 +171,7 @@ def test_parse_text_refuses_in_one_line_naming_module_parameter_and_text(spec, t
 
 @pytest.mark.parametrize(("spec", "texts"), [
     (Int(3, min=1, max=9, step=2), ["0", "10", "2", "many", "", "1.5"]),
-    (Int(None, min=1, optional=True, deprecated={0: None}), ["many", "", "1.5"]),  # 0 is read, as deprecated
+    (Int(None, min=1, optional=True, deprecated={0: None}), ["-1", "many", "", "1.5"]),  # 0 is read, as deprecated
     (Float(0.5, min=0.0, min_open=True, max=1.0), ["0.0", "1.0000000000000002", "nan", "inf", "-inf", "many", ""]),
     (Bool(True), ["maybe", "2", ""]),
     (Choice("a", ["a", "b"], unavailable=lambda: {"b": "no"}), ["no-such-choice", "A", "b"]),
