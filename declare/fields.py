@@ -232,7 +232,7 @@ def as_field(declared: FieldLike) -> Field:
 
 
 class Value(Field):
-    """A scalar checked by a parameter declaration (``Value(Float(0.0, min=0.0), check=positive)``)."""
+    """A scalar checked by a parameter declaration (``Value(Float(1.0, min=0.0, min_open=True), required=True)``)."""
 
     def __init__(self, declaration: Parameter, *, required: bool = False, default: Any = REQUIRED, doc: str = "",
                  check: Check | None = None) -> None:
@@ -408,11 +408,6 @@ class MapOf(Field):
 
 
 # -- checks a declaration cannot say ----------------------------------------------------------------------
-def positive(value: float) -> str | None:
-    """A check: the number must be above 0 (declarations' bounds include their ends)."""
-    return None if value > 0 else "must be positive"
-
-
 def not_blank(value: str) -> str | None:
     """A check: the text must hold something besides spaces."""
     return None if value.strip() else "must not be empty"

@@ -28,7 +28,6 @@ from declare.fields import (
     Record,
     Value,
     Vector,
-    positive,
     read_document,
 )
 from strictio import MAP_CELLS, InputError, YAMLLimits
@@ -72,7 +71,7 @@ def _coordinate(name: str, bound: float, unit: str) -> Value:
 #: What a map YAML holds (keys other tools add pass unread, so maps made for ROS load unchanged).
 MAP_FIELDS = Record({
     "image": FilePath(required=True, doc="the map image, PGM, PNG or BMP"),
-    "resolution": Value(Float(0.05, "metres per cell", min=0.0, max=MAX_RESOLUTION), required=True, check=positive),
+    "resolution": Value(Float(0.05, "metres per cell", min=0.0, min_open=True, max=MAX_RESOLUTION), required=True),
     "origin": Vector([_coordinate("x", MAX_COORDINATE, "m"), _coordinate("y", MAX_COORDINATE, "m"),
                       _coordinate("yaw", MAX_YAW, "rad")], ("x", "y", "yaw"), required=True,
                      doc="pose of the lower-left corner"),

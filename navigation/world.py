@@ -57,7 +57,6 @@ from declare.fields import (
     Vector,
     document_from_text,
     not_blank,
-    positive,
     read_document,
 )
 from strictio import InputError, YAMLLimits
@@ -373,7 +372,7 @@ def _color(default: Color) -> Vector:
 
 _COORDINATE = Float(0.0, "metres in the map frame", min=-MAX_COORDINATE, max=MAX_COORDINATE)
 _POINT = Vector(_COORDINATE, ("x", "y"))
-_SIZE = Value(Float(0.1, "size in metres", min=0.0, max=MAX_SIZE), required=True, check=positive)
+_SIZE = Value(Float(0.1, "size in metres", min=0.0, min_open=True, max=MAX_SIZE), required=True)
 
 
 def _thing_fields(shape: str, moving: bool, color: Color) -> dict[str, Any]:
@@ -394,7 +393,7 @@ def _thing_fields(shape: str, moving: bool, color: Color) -> dict[str, Any]:
         fields["image"] = FilePath(required=True, doc="a poster shows an image file")
     if moving:
         fields["path"] = Vector(_POINT, ("start", "end"), required=True, doc="a speed needs a path")
-        fields["speed"] = Value(Float(0.5, "m/s", max=MAX_COORDINATE), required=True, check=positive)
+        fields["speed"] = Value(Float(0.5, "m/s", min=0.0, min_open=True, max=MAX_COORDINATE), required=True)
     return fields
 
 
@@ -440,7 +439,7 @@ class _Thing(Free):
 #: What a world file holds.
 WORLD_FIELDS = Record({
     "map": FilePath(doc="the map YAML this world belongs to"),
-    "walls": Record({"height": Value(Float(2.0, "metres", max=MAX_SIZE), check=positive),
+    "walls": Record({"height": Value(Float(2.0, "metres", min=0.0, min_open=True, max=MAX_SIZE)),
                      "color": _color(DEFAULT_WALL_COLOR)}),
     "floor": Record({"color": _color(DEFAULT_FLOOR_COLOR)}),
     "background": Record({"color": _color(DEFAULT_BACKGROUND_COLOR)}),

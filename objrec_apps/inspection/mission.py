@@ -17,8 +17,8 @@ A YAML file, read through strictio; paths in it are relative to the file::
         expect: [{name: poster, label: poster, tolerance: 0.6}]
 
 The file is read against a table of declared fields (:data:`MISSION_FIELDS`), so errors name the file, the
-line and the key path (``mission.yaml:14: at.1.expect[0].tolerance: -1 is invalid: must be positive``), as
-every file error of the project does, down to a task's options (``at.0.tasks[1].wait.seconds``).
+line and the key path (``mission.yaml:14: at.1.expect[0].tolerance: -1 is invalid: out of range, allowed float
+in (0..1000000]``), as every file error of the project does, down to a task's options (``at.0.tasks[1].wait.seconds``).
 """
 
 from __future__ import annotations
@@ -28,7 +28,7 @@ from pathlib import Path
 from typing import Any
 
 from declare import Bool, Float, Int, Str
-from declare.fields import DocumentError, FilePath, Free, ListOf, MapOf, Place, Record, Value, not_blank, positive
+from declare.fields import DocumentError, FilePath, Free, ListOf, MapOf, Place, Record, Value, not_blank
 from declare.fields import read_document as read_yaml_document
 from navigation.poses import PoseFile, load_poses
 from navigation.tasks import PoseTask, make_task
@@ -55,11 +55,11 @@ class _Task(Free):
 
 
 _TASKS = ListOf(_Task(), null_is_empty=True, default=None, doc="tasks done at the pose, in order")
-_DISTANCE = Float(DEFAULT_TOLERANCE, "metres", min=0.0, max=1e6)
+_DISTANCE = Float(DEFAULT_TOLERANCE, "metres", min=0.0, min_open=True, max=1e6)
 _EXPECT = Record({
     "name": Value(Str("", "the object's name in the world file"), required=True, check=not_blank),
     "label": Value(Str("", "the name detections give it (default: its name)"), default=None, check=not_blank),
-    "tolerance": Value(_DISTANCE, default=None, check=positive),
+    "tolerance": Value(_DISTANCE, default=None),
 }, shorthand="name")
 
 #: What a mission file holds; pose indices are checked against the pose file once it is read.
@@ -68,7 +68,7 @@ MISSION_FIELDS = Record({
     "first_pose": Int(0, "the pose the patrol starts at", min=0),
     "laps": Int(1, "how many laps", min=1),
     "stop_on_failure": Bool(False, "an aborted goal or task ends the mission"),
-    "tolerance": Value(_DISTANCE, check=positive),
+    "tolerance": Value(_DISTANCE),
     "tasks": _TASKS,
     "at": MapOf(Int(0, "a pose index", min=0),
                 Record({"tasks": _TASKS, "expect": ListOf(_EXPECT, null_is_empty=True)}, null_is_empty=True),

@@ -80,7 +80,7 @@ def write_mission(tmp_path: Path, text: str) -> Path:
     ("poses: poses.txt\nfirst_pose: 2\n", "mission.yaml:2: first_pose: 2 is invalid: not one of the 2 poses"),
     ("poses: poses.txt\nlaps: 0\n", "mission.yaml:2: laps: 0 is invalid: out of range, allowed int in 1..inf"),
     ("poses: poses.txt\ntolerance: -1\n",
-     "mission.yaml:2: tolerance: -1 is invalid: out of range, allowed float in 0..1000000"),
+     "mission.yaml:2: tolerance: -1 is invalid: out of range, allowed float in (0..1000000]"),
     ("poses: poses.txt\nstop_on_failure: maybe\n",
      "mission.yaml:2: stop_on_failure: 'maybe' is invalid: expected true or false"),
     ("poses: poses.txt\ntasks: [dance]\n", "mission.yaml:2: tasks[0]: 'dance' is invalid: unknown task (known: "),

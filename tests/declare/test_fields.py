@@ -22,14 +22,13 @@ from declare.fields import (
     code_place,
     document_from_text,
     not_blank,
-    positive,
     read_document,
 )
 from strictio import InputError, YAMLLimits
 
 SHELF = Record({
     "name": Value(Str("", "the shelf's name"), required=True, check=not_blank),
-    "height": Value(Float(1.0, "metres", min=0.0, max=10.0), check=positive),
+    "height": Value(Float(1.0, "metres", min=0.0, min_open=True, max=10.0)),
     "boxes": ListOf(Record({
         "label": Value(Str("", "what is written on it"), required=True),
         "size": Vector(Float(0.1, "metres", min=0.0, max=5.0), ("width", "depth", "height"), required=True),
@@ -85,7 +84,7 @@ def test_a_wrong_value_deep_in_a_list_names_its_line_key_path_value_and_rule():
     (("fragile: true", "fragle: true"),
      "shelf.yaml:7: boxes[1].fragle: unknown key (allowed: label, size, fragile, colour)"),
     (("  - label: plates\n", "  - colour: white\n"), "shelf.yaml:6: boxes[1].label: missing (what is written on it)"),
-    (("height: 2.5", "height: 0"), "shelf.yaml:2: height: 0 is invalid: must be positive"),
+    (("height: 2.5", "height: 0"), "shelf.yaml:2: height: 0 is invalid: out of range, allowed float in (0..10]"),
     (("name: top", "name: '  '"), "shelf.yaml:1: name: '  ' is invalid: must not be empty"),
     (("[0.3, 0.2, 0.2]", "[0.3, 0.2]"),
      "shelf.yaml:5: boxes[0].size: [0.3, 0.2] is invalid: expected [width, depth, height], each float in 0..5"),

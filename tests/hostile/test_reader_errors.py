@@ -77,7 +77,7 @@ CASES = [
          "      - a\n"
          "      - name: b\n"
          "        tolerance: -0.5\n",
-         load_mission, 7, "at.1.expect[1].tolerance", "-0.5", "out of range, allowed float in 0..1000000"),
+         load_mission, 7, "at.1.expect[1].tolerance", "-0.5", "out of range, allowed float in (0..1000000]"),
     Case("tasks.yaml",
          "poses: poses.txt\n"
          "tasks:\n"

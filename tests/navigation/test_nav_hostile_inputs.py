@@ -129,7 +129,7 @@ def _map_yaml(text: str) -> Callable[[Path], str]:
         (_map_yaml("image: lab.pgm\nresolution: 0.05\norigin: [1.0e+308, 0, 0]\n"),
          ("map.yaml:3: origin[0]: 1e+308 is invalid: out of range, allowed float in -1000000..1000000",)),
         (_map_yaml("image: lab.pgm\nresolution: 1.0e+4\norigin: [0, 0, 0]\n"),
-         ("map.yaml:2: resolution: 10000.0 is invalid: out of range, allowed float in 0..1000",)),
+         ("map.yaml:2: resolution: 10000.0 is invalid: out of range, allowed float in (0..1000]",)),
         (_map_yaml("image: lab.pgm\nresolution: 0.05\norigin: [0, 0, -1.0e+9]\n"),
          ("map.yaml:3: origin[2]: -1000000000.0 is invalid: out of range, allowed float in -100..100",)),
     ],

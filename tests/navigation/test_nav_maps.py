@@ -139,7 +139,7 @@ def test_b5203_map_shipped_with_the_package(b5203_map, b5203_poses):
         ("resolution: 0.05\norigin: [0, 0, 0]\n", "bad.yaml:1: image: missing"),
         ("image: m.png\norigin: [0, 0, 0]\n", "bad.yaml:1: resolution: missing"),
         ("image: m.png\nresolution: -1\norigin: [0, 0, 0]\n",
-         "bad.yaml:2: resolution: -1 is invalid: out of range, allowed float in 0..1000"),
+         "bad.yaml:2: resolution: -1 is invalid: out of range, allowed float in (0..1000]"),
         ("image: m.png\nresolution: fine\norigin: [0, 0, 0]\n",
          "bad.yaml:2: resolution: 'fine' is invalid: expected a number, got str"),
         ("image: m.png\nresolution: 0.05\norigin: [0, 0]\n",
