@@ -275,6 +275,7 @@ def open_source(text: str, kind: str | None = None) -> FrameSource:
     """
     if kind is not None:
         get_kind(kind)  # an unknown kind is an error of its own
+    _refuse_clashes(text, kind)
     named = source_entries(kind)
     entries = list(named.values())
     spec = SourceSpec.parse(text, {s for t in entries for s in t.schemes})
@@ -312,6 +313,18 @@ def open_source(text: str, kind: str | None = None) -> FrameSource:
     source_type = types[0]
     options = source_type.typed_options(spec)
     return source_type.from_spec(spec, options)
+
+
+def _refuse_clashes(text: str, kind: str | None) -> None:
+    """Two installed packages declaring one source name (``2d.demo`` twice) make every spec of that kind an
+    error naming both: listing skips such a name, so opening would otherwise blame something else."""
+    select = _of_kind(kind)
+    for name, declared in SOURCES.entry_points().items():
+        if len(declared) > 1 and (select is None or select(name)) and SOURCES.registered(name) is None:
+            try:
+                SOURCES.entry_point(name)
+            except UnknownModuleError as exc:
+                raise SourceError(f"{text}: {exc}") from None
 
 
 def _no_source(spec: SourceSpec, kind: str | None, what: str) -> SourceError:

@@ -212,6 +212,18 @@ def test_a_second_hsvfilter_entry_point_is_refused_naming_both_distributions(sit
     assert module_type("MorphologyFilter").__name__ == "MorphologyFilter"  # the other names are unharmed
 
 
+def test_a_second_source_entry_point_of_the_same_name_is_refused_naming_both_distributions(site):
+    install_dist(site, "regtest-demo", "2.0", '[objrec.sources]\n2d.demo = regtest_demo:Demo\n',
+                 {"regtest_demo.py": "from objrec2d.sources import DemoSource as Demo\n"})
+    with pytest.raises(SourceError) as info:
+        open_source("demo:frames=1", "2d")
+    message = str(info.value)
+    assert message.startswith("demo:frames=1: source type '2d.demo' is declared twice")
+    assert "from objrec 0.1.0" in message and "regtest_demo:Demo from regtest-demo 2.0" in message
+    with open_source("demo:frames=1", "3d") as cloud:  # another kind's sources are unharmed
+        assert cloud.length == 1
+
+
 def test_a_module_registered_in_code_may_not_take_an_installed_name():
     class HSVFilter(Filter):
         kind = "2d"
