@@ -25,6 +25,7 @@ import numpy as np
 from objrec_core import SourceError
 from strictio import CLOUD_POINTS, InputError, read_bytes, write_atomically
 from strictio.limits import check
+from strictio.shown import printable
 
 from .cloud import PointCloud
 
@@ -53,13 +54,6 @@ class CloudFileError(SourceError, InputError):
     def __init__(self, path: str | os.PathLike[str], problem: str) -> None:
         self.problem = problem
         InputError.__init__(self, path, problem)
-
-
-def shown(text: str, limit: int = 40) -> str:
-    """A name or value from a file as it may be printed: escaped (no control characters reach the
-    terminal), and cut short."""
-    escaped = text.encode("unicode_escape", "backslashreplace").decode("ascii")
-    return escaped if len(escaped) <= limit else escaped[:limit] + "..."
 
 
 @dataclass(frozen=True)
@@ -141,33 +135,34 @@ def _parse_header(path: Path, raw: bytes) -> tuple[_Header, int]:
     descr = []
     point_bytes = 0
     for name, size_text, kind, count_text in zip(fields, sizes, types, counts, strict=True):
-        size = _whole(path, f"SIZE of field {shown(name)}", [size_text])
-        count = _whole(path, f"COUNT of field {shown(name)}", [count_text])
+        size = _whole(path, f"SIZE of field {printable(name)}", [size_text])
+        count = _whole(path, f"COUNT of field {printable(name)}", [count_text])
         code = _TYPES.get((kind, size))
         if code is None:
-            raise CloudFileError(path, f"corrupt header: field {shown(name)} has unsupported TYPE {shown(kind)} "
-                                       f"SIZE {size} (F 4/8, U or I 1/2/4/8)")
+            raise CloudFileError(path, f"corrupt header: field {printable(name)} has unsupported TYPE "
+                                       f"{printable(kind)} SIZE {size} (F 4/8, U or I 1/2/4/8)")
         if count < 1 or (count != 1 and name in _SINGLE_VALUED):
             must = "it must be 1" if name in _SINGLE_VALUED else "it must be at least 1"
-            raise CloudFileError(path, f"corrupt header: field {shown(name)} has COUNT {count}; {must}")
+            raise CloudFileError(path, f"corrupt header: field {printable(name)} has COUNT {count}; {must}")
         point_bytes += size * count
         if point_bytes > MAX_POINT_BYTES:
-            raise CloudFileError(path, f"corrupt header: field {shown(name)} with COUNT {count} makes a point over "
+            raise CloudFileError(path, f"corrupt header: field {printable(name)} with COUNT {count} makes a point over "
                                        f"{MAX_POINT_BYTES:,} bytes")
         descr.append((name, code, (count,)) if count > 1 else (name, code))
     if len(set(fields)) != len(fields):
         twice = next(name for name in fields if fields.count(name) > 1)
-        raise CloudFileError(path, f"corrupt header: field {shown(twice)} occurs more than once")
+        raise CloudFileError(path, f"corrupt header: field {printable(twice)} occurs more than once")
     try:
         dtype = np.dtype(descr)
     except (ValueError, TypeError) as exc:
         raise CloudFileError(path, f"corrupt header: {exc}") from None
     encoding = entries["DATA"][0].lower() if entries["DATA"] else ""
     if encoding not in ENCODINGS:
-        raise CloudFileError(path, f"unknown DATA encoding '{shown(encoding)}' (ascii, binary or binary_compressed)")
+        raise CloudFileError(path, f"unknown DATA encoding '{printable(encoding)}' "
+                                   "(ascii, binary or binary_compressed)")
     for axis in "xyz":
         if axis not in fields:
-            raise CloudFileError(path, f"no {axis} field (fields: {shown(' '.join(fields), 80)})")
+            raise CloudFileError(path, f"no {axis} field (fields: {printable(' '.join(fields), 80)})")
     sizes_i = [dtype[name].base.itemsize for name in fields]
     counts_i = [int(np.prod(dtype[name].shape)) or 1 for name in fields]
     return _Header(fields, sizes_i, types, counts_i, width, height, encoding, dtype), offset
@@ -177,7 +172,7 @@ def _whole(path: Path, what: str, values: list[str]) -> int:
     """A header's whole number, at least 0; CloudFileError names what it is and shows the value."""
     text = values[0] if values else ""
     if not text.isdigit() or len(text) > 20:  # no sign, no 5,000 digits: a count or a size
-        raise CloudFileError(path, f"corrupt header: {what} '{shown(text, 24)}' is not a whole number")
+        raise CloudFileError(path, f"corrupt header: {what} '{printable(text, 24)}' is not a whole number")
     return int(text)
 
 
@@ -251,7 +246,7 @@ def ascii_rows(path: Path, data: bytes | memoryview, columns: int, rows: int, fi
         if bad[1] == len(data) and tokens < columns:
             raise CloudFileError(path, f"truncated: line {number} ends after {tokens} of {columns} values")
         raise CloudFileError(path, f"corrupt ascii data: line {number} is not {columns} numbers: "
-                                   f"'{shown(line.decode('latin-1'))}'")
+                                   f"'{printable(line.decode('latin-1'), 40)}'")
     if values.shape[0] < rows:
         raise CloudFileError(path, f"truncated: ascii data holds {values.shape[0]} of {rows} points")
     return values, data[end:]

@@ -14,9 +14,10 @@ import numpy as np
 
 from strictio import CLOUD_POINTS, InputError, read_bytes
 from strictio.limits import check
+from strictio.shown import printable
 
 from .cloud import PointCloud
-from .pcd import MAX_HEADER_BYTES, MAX_PCD_BYTES, CloudFileError, ascii_rows, line_end, shown
+from .pcd import MAX_HEADER_BYTES, MAX_PCD_BYTES, CloudFileError, ascii_rows, line_end
 
 #: PLY property types as NumPy types (byte order added by the format).
 _PLY_TYPES = {"char": "i1", "int8": "i1", "uchar": "u1", "uint8": "u1", "short": "i2", "int16": "i2",
@@ -55,7 +56,7 @@ def read_ply(path: str | Path) -> PointCloud:
     before = elements[: elements.index(vertex)]
     lists = [e.name for e in [*before, vertex] if any(kind is None for _, kind in e.properties)]
     if lists and (fmt != "ascii" or vertex.name in lists):
-        raise CloudFileError(path, f"element {shown(lists[0])} has list properties where vertices are read "
+        raise CloudFileError(path, f"element {printable(lists[0])} has list properties where vertices are read "
                                    "(not supported there)")
     names = [name for name, _ in vertex.properties]
     body = memoryview(raw)[body_start:]
@@ -111,26 +112,27 @@ def _ply_header(path: Path, raw: bytes) -> tuple[str, list[_PlyElement], int]:
         if parts[0] == "format" and len(parts) == 3:
             fmt = parts[1]
             if fmt not in _PLY_FORMATS:
-                raise CloudFileError(path, f"{where}: unknown format '{shown(fmt)}' (ascii, binary_little_endian "
+                raise CloudFileError(path, f"{where}: unknown format '{printable(fmt)}' (ascii, binary_little_endian "
                                            "or binary_big_endian)")
         elif parts[0] == "element" and len(parts) == 3:
             count = parts[2]
             if not count.isdigit() or len(count) > 20:
-                raise CloudFileError(path, f"{where}: element {shown(parts[1])} count '{shown(count, 24)}' is not "
-                                           "a whole number")
+                raise CloudFileError(path, f"{where}: element {printable(parts[1])} count "
+                                           f"'{printable(count, 24)}' is not a whole number")
             elements.append(_PlyElement(parts[1], int(count)))
             if parts[1] == "vertex":
                 check(path, CLOUD_POINTS, int(count), "element vertex", "header")  # before anything is allocated
         elif parts[0] == "property" and elements and len(parts) in (3, 5) and (len(parts) == 5) == (parts[1] == "list"):
             name, kind = parts[-1], None if len(parts) == 5 else _PLY_TYPES.get(parts[1])
             if kind is None and len(parts) == 3:
-                raise CloudFileError(path, f"{where}: property {shown(name)} has unknown type '{shown(parts[1])}'")
+                raise CloudFileError(path, f"{where}: property {printable(name)} has unknown type "
+                                           f"'{printable(parts[1])}'")
             if name in dict(elements[-1].properties):
-                raise CloudFileError(path, f"{where}: property {shown(name)} occurs twice in element "
-                                           f"{shown(elements[-1].name)}")
+                raise CloudFileError(path, f"{where}: property {printable(name)} occurs twice in element "
+                                           f"{printable(elements[-1].name)}")
             elements[-1].properties.append((name, kind))
         else:
-            raise CloudFileError(path, f"{where}: '{shown(line)}' is not a PLY header line")
+            raise CloudFileError(path, f"{where}: '{printable(line)}' is not a PLY header line")
     if not fmt:
         raise CloudFileError(path, "corrupt PLY header: no format line")
     return fmt, elements, offset

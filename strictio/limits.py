@@ -13,6 +13,7 @@ import os
 from dataclasses import dataclass
 
 from .errors import InputError
+from .shown import printable
 
 
 @dataclass(frozen=True)
@@ -47,7 +48,7 @@ class LimitSettingError(InputError):
     InputError, so that every command reports it like any other bad input (one line, exit code 2)."""
 
     def __init__(self, limit: Limit, text: str) -> None:
-        shown = text.encode("unicode_escape").decode("ascii")[:40]
+        shown = printable(text, 40)
         super().__init__(f"environment variable {limit.variable}",
                          f"'{shown}' is not a whole number of {limit.unit} between 1 and 2**62")
 

@@ -261,7 +261,7 @@ def test_ascii_pcd_lines_are_checked_one_by_one(tmp_path: Path) -> None:
         "short.pcd": (head + b"1 2 3\n4 5 6\n", "truncated: ascii data holds 2 of 4 points"),
         "long.pcd": (head + b"1 2 3\n" * 5, "more lines than the 4 points"),
         "wide.pcd": (head + b"1 2 3\n4 5 6 7\n" + b"1 2 3\n" * 2, "line 13 is not 3 numbers: '4 5 6 7'"),
-        "nul.pcd": (head + b"1 2 3\n" * 3 + b"1 \x00\xff 3\n", r"line 15 is not 3 numbers: '1 \x00\xff 3'"),
+        "nul.pcd": (head + b"1 2 3\n" * 3 + b"1 \x00\xff 3\n", r"line 15 is not 3 numbers: '1 \x00ÿ 3'"),
     }
     for name, (data, words) in cases.items():
         with pytest.raises(CloudFileError) as info:
