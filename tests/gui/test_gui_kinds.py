@@ -102,12 +102,12 @@ class WaveSource(FrameSource):
 
     kind = "signal"
     schemes = ("wave",)
-    options = {"frames": Int(0, "how many frames (0: endless)", min=0)}  # noqa: RUF012 - a declaration
+    options = {"frames": Int(None, "how many frames (none: endless)", min=1, optional=True)}  # noqa: RUF012
     summary = "wave[:frames=N], a moving sine"
 
     @classmethod
     def from_spec(cls, spec: SourceSpec, options: dict[str, Any]) -> WaveSource:
-        return cls(spec.text, options["frames"] or None)
+        return cls(spec.text, options["frames"])
 
     def __init__(self, name: str = "wave", frames: int | None = None) -> None:
         self.name = name

@@ -7,6 +7,7 @@ import os
 import signal
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 import cv2
@@ -129,15 +130,19 @@ def test_render_extension_is_checked(capsys):
 def test_a_signal_on_a_realtime_run_shuts_down_cleanly(tmp_path, sig):
     """Real Ctrl-C or SIGTERM on a real-time run: the patrol is preempted, SHUTDOWN entered, summary printed."""
     events = tmp_path / "e.jsonl"
+    started = time.monotonic()
     code, out, err = signal_once_working(
         [sys.executable, "-m", "navigation", POSES, "--map", MAP, "--realtime", "--events", str(events)],
         lambda: events.exists() and events.stat().st_size > 0, sig, after=1.5)
+    ran = time.monotonic() - started
     assert code == 0, err
     assert "Traceback" not in err
     fields = summary_fields(out)
     assert fields["outcome"] == f"shutdown ({sig.name})" and fields["final state"] == "SHUTDOWN"
     sim_seconds = float(fields["simulated time"].split("(")[1].split()[0])
-    assert 1.0 <= sim_seconds <= 5.0  # real time: about the 1.5 s it ran, not hundreds of seconds
+    # real time never runs ahead of the clock (a fast-forward run would be hundreds of seconds), and it ran
+    # for at least most of the 1.5 s before the signal: a relation to the measured run, not a speed limit
+    assert 1.0 <= sim_seconds <= ran
     kinds = [json.loads(line) for line in Path(events).read_text().splitlines()]
     assert kinds[-1] == {"t": kinds[-1]["t"], "type": "outcome", "outcome": "shutdown"}
     assert any(e["type"] == "state_enter" and e["state"] == "SHUTDOWN" for e in kinds)

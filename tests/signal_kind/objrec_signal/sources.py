@@ -73,7 +73,7 @@ class WaveSource(FrameSource):
     extensions = (".sig",)
     options = {  # noqa: RUF012 - declarations, never mutated
         "seed": Int(0, "random seed of the bumps and the noise", min=0, max=2**31 - 1),
-        "frames": Int(0, "how many frames (0: endless)", min=0),
+        "frames": Int(None, "how many frames (none: endless)", min=1, optional=True),
         "length": Int(256, "samples per frame", min=16, max=1_000_000),
         "peaks": Int(3, "bumps per frame (fewer where the frame is too short for them)", min=0, max=1000),
         "noise": Float(0.02, "standard deviation of the noise", min=0.0, max=100.0),
@@ -85,7 +85,7 @@ class WaveSource(FrameSource):
     def from_spec(cls, spec: SourceSpec, options: dict[str, Any]) -> WaveSource:
         if spec.path is not None:
             return cls(name=spec.text, recorded=read_signal_file(spec.path))
-        return cls(name=spec.text, seed=options["seed"], frames=options["frames"] or None,
+        return cls(name=spec.text, seed=options["seed"], frames=options["frames"],
                    length=options["length"], peaks=options["peaks"], noise=options["noise"])
 
     def __init__(self, name: str = "wave", *, seed: int = 0, frames: int | None = None, length: int = 256,
