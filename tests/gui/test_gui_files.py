@@ -13,7 +13,7 @@ from PySide6.QtWidgets import QFileDialog
 
 from objrec_apps.define import starting_system
 from objrec_apps.gui.changes import Answer
-from objrec_apps.gui.param_widgets import BoolEditor, ChoiceEditor, NumberEditor, TextEditor
+from objrec_apps.gui.param_widgets import BoolEditor, ChoiceEditor, NumberEditor, OptionalEditor, TextEditor
 from objrec_core import ParameterStorage
 
 
@@ -50,7 +50,9 @@ def change_every_value_through_the_panels(gui) -> None:
         # Backwards, so each maximum moves before its minimum: min_contour_length may not pass its maximum.
         for name, editor in reversed(panel.editors.items()):
             before = panel.module.get_parameters()[name]
-            if isinstance(editor, NumberEditor):
+            if isinstance(editor, OptionalEditor):  # none <-> a value, as a user ticks the box
+                editor.none.setChecked(not editor.none.isChecked())
+            elif isinstance(editor, NumberEditor):
                 if editor.slider is not None:
                     position = max(1, editor.slider.maximum() // 3)
                     if editor.value_at(position) == before:  # a third of the way may be the value already
