@@ -33,11 +33,11 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 #: What a case may take at most (the issue's bounds): CPU seconds of the command, and its peak memory.
-SECONDS_LIMIT = 10.0
+CPU_SECONDS_LIMIT = 10.0
 MEMORY_LIMIT_MB = 500.0
 #: Where a child is killed outright: far above the limit, far below what would hurt a shared machine.
 MEMORY_CEILING_MB = 1500.0
-CPU_CEILING_SECONDS = 3 * SECONDS_LIMIT
+CPU_CEILING_SECONDS = 3 * CPU_SECONDS_LIMIT
 #: Wall-clock seconds after which a child is taken as hung and killed: minutes, never a speed bound.
 HANG_GUARD_SECONDS = 120.0
 _TICKS = os.sysconf("SC_CLK_TCK")
@@ -277,7 +277,7 @@ def raw_controls(text: str) -> list[str]:
         unicodedata.category(c) in ("Cc", "Zl", "Zp") or unicodedata.bidirectional(c) in _BIDI_CLASSES)]
 
 
-def bounded(outcome: Outcome, cpu_limit: float = SECONDS_LIMIT) -> list[str]:
+def bounded(outcome: Outcome, cpu_limit: float = CPU_SECONDS_LIMIT) -> list[str]:
     """What is wrong with a run's cost: killed, too much CPU time, too much memory, a traceback."""
     problems = []
     if outcome.killed:

@@ -22,7 +22,7 @@ import objrec_apps
 
 from . import hostile_files as hf
 from .harness import (
-    SECONDS_LIMIT,
+    CPU_SECONDS_LIMIT,
     FileSizeLimit,
     Outcome,
     assert_refused,
@@ -485,6 +485,6 @@ def test_cloud_folder_of_only_bad_files(tmp_path: Path) -> None:
     if len(errors) != 1 or "clouds" not in errors[0]:
         problems.append(f"{len(errors)} error lines, expected one naming the folder")
     problems += [f"{name} not named" for name in ("a_bad.pcd", "b_bad.ply") if name not in outcome.stderr]
-    if "Traceback" in outcome.stderr or outcome.cpu_seconds >= SECONDS_LIMIT or outside(outcome, ()):
+    if "Traceback" in outcome.stderr or outcome.cpu_seconds >= CPU_SECONDS_LIMIT or outside(outcome, ()):
         problems.append("a traceback, too slow, or files written")
     assert not problems, "; ".join(problems) + "\n" + outcome.describe()

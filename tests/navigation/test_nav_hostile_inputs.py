@@ -20,7 +20,7 @@ from tests.hostile import harness
 
 PROJECT = Path(__file__).resolve().parents[2]
 LAB = PROJECT / "examples" / "inspection_lab"
-SECONDS_LIMIT = harness.SECONDS_LIMIT  # CPU seconds of the command
+CPU_SECONDS_LIMIT = harness.CPU_SECONDS_LIMIT  # CPU seconds of the command
 MEMORY_LIMIT_MB = harness.MEMORY_LIMIT_MB
 MAP_FIELDS = "resolution: 0.05\norigin: [0.0, 0.0, 0.0]\n"
 
@@ -80,7 +80,7 @@ def refused(run: harness.Outcome, *fragments: str) -> None:
     assert len(lines) == 1, stderr
     for fragment in fragments:
         assert fragment in lines[0], lines[0]
-    assert seconds < SECONDS_LIMIT and rss < MEMORY_LIMIT_MB, (seconds, rss)
+    assert seconds < CPU_SECONDS_LIMIT and rss < MEMORY_LIMIT_MB, (seconds, rss)
 
 
 @pytest.mark.parametrize("kind, why", SPECIALS)

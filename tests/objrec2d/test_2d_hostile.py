@@ -17,7 +17,7 @@ from tests.hostile import harness
 
 PROJECT = Path(__file__).resolve().parents[2]
 PARAMS = PROJECT / "params" / "hsv_demo.yaml"
-SECONDS_LIMIT = harness.SECONDS_LIMIT  # CPU seconds of the command
+CPU_SECONDS_LIMIT = harness.CPU_SECONDS_LIMIT  # CPU seconds of the command
 MEMORY_LIMIT_MB = harness.MEMORY_LIMIT_MB
 
 
@@ -34,7 +34,7 @@ def refused(run: harness.Outcome, name: str, fragment: str) -> None:
     assert "Traceback" not in run.stderr, run.stderr
     assert len(run.lines) == 1, run.stderr
     assert name in run.lines[0] and fragment in run.lines[0], run.lines[0]
-    assert run.cpu_seconds < SECONDS_LIMIT and run.max_rss_mb < MEMORY_LIMIT_MB, run
+    assert run.cpu_seconds < CPU_SECONDS_LIMIT and run.max_rss_mb < MEMORY_LIMIT_MB, run
 
 
 def png_bomb(width: int, height: int) -> bytes:
@@ -125,7 +125,7 @@ def test_a_truncated_video_keeps_its_decoded_frames_and_exits_2(tmp_path):
     assert 5 < read < 40
     assert f"cut.avi: truncated or corrupt: frame {read} of 40 cannot be decoded; {read} of 40 frames were read" \
         in errors[0]
-    assert run.cpu_seconds < SECONDS_LIMIT and run.max_rss_mb < MEMORY_LIMIT_MB
+    assert run.cpu_seconds < CPU_SECONDS_LIMIT and run.max_rss_mb < MEMORY_LIMIT_MB
 
 
 def test_a_folder_skips_each_bad_file_with_one_warning_and_exits_0(tmp_path):
@@ -145,7 +145,7 @@ def test_a_folder_skips_each_bad_file_with_one_warning_and_exits_0(tmp_path):
         said = [line for line in run.lines if name in line]
         assert len(said) == 1 and why in said[0] and "skipped" in said[0], run.stderr
     assert not [line for line in run.lines if "good" in line or "libpng" in line or "JPEG" in line.split(":")[0]]
-    assert run.cpu_seconds < SECONDS_LIMIT and run.max_rss_mb < MEMORY_LIMIT_MB
+    assert run.cpu_seconds < CPU_SECONDS_LIMIT and run.max_rss_mb < MEMORY_LIMIT_MB
 
 
 def test_a_folder_of_nothing_readable_exits_2(tmp_path):
@@ -158,7 +158,7 @@ def test_a_folder_of_nothing_readable_exits_2(tmp_path):
     errors = [line for line in run.lines if "error:" in line]
     assert len(errors) == 1 and "no readable image in the folder: none of its 2 images could be read" in errors[0]
     assert len(run.lines) == 3  # a warning for each file, then the error
-    assert run.cpu_seconds < SECONDS_LIMIT and run.max_rss_mb < MEMORY_LIMIT_MB
+    assert run.cpu_seconds < CPU_SECONDS_LIMIT and run.max_rss_mb < MEMORY_LIMIT_MB
 
 
 def test_an_embedded_target_claiming_20000x20000_pixels_is_refused_before_decoding():

@@ -31,7 +31,7 @@ from strictio import InputError, LimitError
 from tests.hostile import harness
 
 SHAPE = str(Path(objrec_apps.__file__).parent / "systems" / "shape_demo.yaml")
-SECONDS, MEGABYTES = harness.SECONDS_LIMIT, harness.MEMORY_LIMIT_MB  # CPU seconds, peak memory of a command
+SECONDS, MEGABYTES = harness.CPU_SECONDS_LIMIT, harness.MEMORY_LIMIT_MB  # CPU seconds, peak memory of a command
 
 
 # -- files ------------------------------------------------------------------------------------------------------
