@@ -1,4 +1,5 @@
-"""``objrec-patrol POSES_FILE --map MAP_YAML``: run the inspection patrol in the built-in simulator.
+"""``objrec-patrol POSES_FILE --map MAP_YAML``: run the inspection patrol in the built-in simulator, or on a live
+robot named by ``--robot`` (a plug-in of :mod:`navigation.robots`, e.g. ``ros1``).
 
 Results (the summary) go to stdout, diagnostics to stderr. A map or pose file that cannot be used, an
 option's value out of its declared range, or an output that cannot be written gives one error line naming
@@ -16,6 +17,7 @@ from collections.abc import Sequence
 from dataclasses import replace
 from pathlib import Path
 
+from foxgloveio.server import FoxgloveUnavailable, add_foxglove_argument
 from rerunio import RerunUnavailable
 from strictio import InputError, OutputError
 from strictio.cli_numbers import CommandLineParser, Number, check_limit_settings, fields
@@ -25,12 +27,14 @@ from strictio.signals import StopSignals
 from .battery import LaptopBatteryParams, RobotBatteryParams, kobuki_percent, kobuki_voltage
 from .diagram import write_diagram
 from .docking import DockingStation
+from .foxglove_log import PatrolView, open_patrol_view
 from .geometry import Pose2D
 from .maps import MapError, load_map
 from .patrol import PatrolMachine
 from .poses import PoseFileError, load_poses
 from .render import ANIMATED, STILL, RunPicture, save_render
 from .rerun_log import PatrolRecorder, open_patrol_rerun
+from .robots import DEFAULT_ROBOT, RobotError, RobotSetup, RobotUnavailable, open_robot, robot_names
 from .runner import MAX_STEPS, Summary, run_patrol
 from .sim_options import add_simulation_options, simulation_config
 from .simulation import SimConfig, Simulation, StartPoseError
@@ -89,6 +93,13 @@ def build_parser() -> argparse.ArgumentParser:
                            f"{DOCK_DISTANCE.describe()})")
     dock.add_argument("--resume-after-charging", action="store_true",
                       help="undock and patrol on when charged, instead of shutting down")
+    live = p.add_argument_group(
+        "robot", "The simulator is the default. A live robot drives the same state machine: see docs/navigation.md, "
+        "\"The patrol on a real robot (ROS 1)\".")
+    live.add_argument("--robot", default=DEFAULT_ROBOT, metavar="NAME[,KEY=VALUE...]",
+                      help="the robot to patrol with: sim (default) or an installed one, e.g. "
+                           "ros1,master=http://HOST:11311,kobuki=/mobile_base/sensors/core for a TurtleBot 2 "
+                           f"(installed: {', '.join(robot_names())}); the options of a robot are in docs/navigation.md")
     add_simulation_options(p)
     out = p.add_argument_group("output")
     out.add_argument("--events", metavar="FILE", help="write every event as JSON Lines")
@@ -99,6 +110,7 @@ def build_parser() -> argparse.ArgumentParser:
     out.add_argument("--rerun", metavar="FILE.rrd|spawn",
                      help="record the map, the robot's pose and path, scans, goals and state changes for the "
                           "Rerun viewer: a .rrd file, or spawn to open the viewer (needs objrec[viz])")
+    add_foxglove_argument(out)
     out.add_argument("-v", "--verbose", action="count", default=0, help="more log output on stderr")
     return p
 
@@ -114,6 +126,8 @@ def format_summary(summary: Summary) -> str:
     rows = [
         ("outcome", f"{summary.outcome}{reason}"),
         ("final state", ", ".join(summary.final_states) or "-"),
+        ("time", f"{_format_time(summary.sim_time)} ({summary.sim_time:.1f} s) on the live robot")
+        if summary.wall_clock else
         ("simulated time", f"{_format_time(summary.sim_time)} ({summary.sim_time:.1f} s) in "
                            f"{summary.wall_time:.2f} s wall ({summary.speedup:.0f}x real time)"),
         ("laps", str(summary.laps)),
@@ -122,13 +136,20 @@ def format_summary(summary: Summary) -> str:
         ("distance", f"{summary.distance:.1f} m (odometry drifted {summary.odometry_drift:.2f} m)"),
         ("localization", _format_localization(summary)),
         ("collisions", str(summary.collisions)),
-        ("robot battery", f"{summary.robot_battery:.1f} %"),
-        ("laptop battery", f"{summary.laptop_battery:.1f} %"),
+        ("robot battery", _percent(summary.robot_battery)),
+        ("laptop battery", _percent(summary.laptop_battery)),
     ]
     return "\n".join(f"{k + ':':16s}{v}" for k, v in rows)
 
 
+def _percent(value: float) -> str:
+    """A battery level; a live robot's battery that was never heard of is unknown (NaN)."""
+    return "unknown" if math.isnan(value) else f"{value:.1f} %"
+
+
 def _format_localization(summary: Summary) -> str:
+    if summary.wall_clock:
+        return f"from {summary.localization}"  # a live robot: what its localizer publishes
     if summary.localization == "exact":
         return "exact (navigation sees the true pose)"
     updates = f", {summary.localization_updates} filter updates" if summary.localization == "amcl" else ""
@@ -204,13 +225,19 @@ def _run(parser: argparse.ArgumentParser, args: argparse.Namespace, early: StopS
         start = station_pose or pose_file.goals[0]
     station = DockingStation.in_front_of(station_pose, args.dock_distance) if station_pose else None
     config = _config(args)
+    setup = RobotSetup(occ_map, start, tuple(pose_file.goals), station_pose, station, config,
+                       stop_requested=lambda: early is not None and early.count > 0)
     try:
-        sim = Simulation(occ_map, start, config, station=station)
-    except StartPoseError as exc:
+        sim = open_robot(args.robot, setup)
+    except (StartPoseError, RobotError, RobotUnavailable) as exc:
         _error(exc)
         return 2
+    if not isinstance(sim, Simulation) and args.rerun:
+        sim.close()
+        _error(f"--rerun records the simulator only; --robot {args.robot} is a live robot")
+        return 2
     for i, goal in enumerate(pose_file.goals):
-        if sim.field.collides(goal.x, goal.y, config.robot.radius):
+        if isinstance(sim, Simulation) and sim.field.collides(goal.x, goal.y, config.robot.radius):
             log.warning("goal POSE_%d (%.2f, %.2f) is off the map or in an obstacle; it will be aborted",
                         i, goal.x, goal.y)
     if args.resume_after_charging and args.laps is None and args.time_limit is None and not args.realtime:
@@ -226,6 +253,17 @@ def _run(parser: argparse.ArgumentParser, args: argparse.Namespace, early: StopS
         except RerunUnavailable as exc:
             _error(exc)
             return 2
+    view: PatrolView | None = None
+    if args.foxglove:
+        try:
+            view = open_patrol_view(args.foxglove, sim, occ_map, machine, pose_file.goals, station_pose)
+        except FoxgloveUnavailable as exc:
+            if recorder is not None:
+                recorder.close()
+            sim.close()
+            _error(exc)
+            return 2
+        print(f"{PROG}: Foxglove live view on {view.server.url}", file=sys.stderr, flush=True)
     try:
         _make_parent_folders(args.diagram, args.events, args.render)
         if args.diagram:
@@ -248,6 +286,9 @@ def _run(parser: argparse.ArgumentParser, args: argparse.Namespace, early: StopS
         sim.events.close()
         if recorder is not None:
             recorder.close()
+        if view is not None:
+            view.close()
+        sim.close()
     if args.diagram:
         write_diagram(args.diagram, len(pose_file.goals), machine.active_states())
     print(format_summary(summary))

@@ -35,10 +35,9 @@ from typing import Any
 
 from transitions.extensions.nesting import HierarchicalMachine, NestedState
 
-from .clock import Timer
 from .geometry import Pose2D
 from .move_base import GoalStatus
-from .simulation import Simulation
+from .robot_interface import PatrolRobot, TimerHandle
 from .task_runner import TaskRunner
 from .tasks import StateTask, Visit
 
@@ -234,7 +233,10 @@ class PatrolStats:
 
 
 class PatrolMachine:
-    """The patrol, driving a :class:`~navigation.simulation.Simulation`.
+    """The patrol, driving a robot: the built-in :class:`~navigation.simulation.Simulation` or a live one.
+
+    ``sim`` is anything that keeps :class:`~navigation.robot_interface.PatrolRobot` (the attribute keeps its
+    historical name: tasks and recorders that need the simulator's own parts reach them through it).
 
     ``tasks[i]`` are done at pose ``i`` after its goal is reached, each as a state of its own; ``monitors``
     run beside the battery monitors. ``first_pose`` is where PATROL starts (a lap ends with the pose before
@@ -242,7 +244,7 @@ class PatrolMachine:
     robot's camera for tasks that take pictures, and ``output_dir`` is where they save files.
     """
 
-    def __init__(self, sim: Simulation, goals: list[Pose2D] | tuple[Pose2D, ...], station_pose: Pose2D | None,
+    def __init__(self, sim: PatrolRobot, goals: list[Pose2D] | tuple[Pose2D, ...], station_pose: Pose2D | None,
                  max_laps: int | None = None, resume_after_charging: bool = False,
                  monitor_period: float = 1.0, *, tasks: Sequence[Sequence[StateTask]] = (), first_pose: int = 0,
                  stop_on_failure: bool = False, monitors: Sequence[Monitor] = (),
@@ -271,8 +273,8 @@ class PatrolMachine:
         self._resume_pose = 0
         self._token = 0
         self._unsubscribe: Callable[[], None] | None = None
-        self._laptop_timer: Timer | None = None
-        self._wait_timer: Timer | None = None
+        self._laptop_timer: TimerHandle | None = None
+        self._wait_timer: TimerHandle | None = None
         n = len(self.goals)
         suffixes = [[t.state for t in row] for row in tasks]
         self.states_table = patrol_states(n, suffixes, monitors, first_pose)

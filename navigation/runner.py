@@ -50,6 +50,8 @@ class Summary:
     localization_error_mean: float = 0.0
     localization_error_max: float = 0.0
     localization_updates: int = 0
+    # The robot's clock is the wall clock (a live robot): sim_time is then real time.
+    wall_clock: bool = False
 
     @property
     def speedup(self) -> float:
@@ -72,21 +74,22 @@ class Summary:
 
 
 def summarize(machine: PatrolMachine, wall_time: float) -> Summary:
-    sim, st = machine.sim, machine.stats
-    loc = sim.localizer
+    robot, st = machine.sim, machine.stats
+    report = robot.report()
     return Summary(
         outcome=machine.outcome,
         final_states=tuple(machine.active_states()),
         preempt_reason=machine.preempt_reason,
         laps=st.laps, goals_reached=st.goals_reached, goals_aborted=st.goals_aborted,
-        goals_preempted=st.goals_preempted, distance=sim.distance, odometry_drift=sim.odometry_drift(),
-        collisions=sim.collisions,
-        sim_time=sim.clock.now, wall_time=wall_time, robot_battery=sim.robot_battery.percentage,
-        laptop_battery=sim.laptop_battery.percentage,
-        localization=sim.config.localization,
-        localization_error_mean=loc.errors.mean if loc is not None else 0.0,
-        localization_error_max=loc.errors.max if loc is not None else 0.0,
-        localization_updates=loc.updates if loc is not None else 0,
+        goals_preempted=st.goals_preempted, distance=report.distance, odometry_drift=report.odometry_drift,
+        collisions=report.collisions,
+        sim_time=robot.clock.now, wall_time=wall_time, robot_battery=robot.robot_battery.percentage,
+        laptop_battery=robot.laptop_battery.percentage,
+        localization=report.localization,
+        localization_error_mean=report.localization_error_mean,
+        localization_error_max=report.localization_error_max,
+        localization_updates=report.localization_updates,
+        wall_clock=robot.wall_clock,
     )
 
 
@@ -94,16 +97,20 @@ def run_patrol(machine: PatrolMachine, time_limit: float | None = None, realtime
                speed: float = 1.0, handle_sigint: bool = True, max_steps: int | None = MAX_STEPS) -> Summary:
     """Start the machine (if not started) and step until its outcome; returns the summary.
 
-    ``time_limit`` (simulated seconds) preempts the patrol like Ctrl-C would, and so does ``max_steps`` on a
-    run flat out (None: no bound). With ``realtime`` the loop sleeps so that simulated time advances ``speed``
-    times as fast as the wall clock. ``handle_sigint`` turns SIGINT and SIGTERM into a preemption.
+    ``time_limit`` (seconds of the robot's clock) preempts the patrol like Ctrl-C would, and so does
+    ``max_steps`` on a simulation run flat out (None: no bound). With ``realtime`` the loop sleeps so that
+    simulated time advances ``speed`` times as fast as the wall clock. A robot on the wall clock (a live one)
+    is neither paced nor bounded in steps: its ``step`` waits for the world. ``handle_sigint`` turns SIGINT and
+    SIGTERM into a preemption.
     """
     sim = machine.sim
     if not machine.entered:
         machine.begin()
     wall0 = time.perf_counter()
     sim0 = sim.clock.now
-    step_limit = None if realtime or max_steps is None else sim.clock.steps + max_steps
+    paced = realtime and not sim.wall_clock
+    steps = 0
+    step_limit = None if realtime or sim.wall_clock or max_steps is None else max_steps
     preempt_at: float | None = None
     flag = StopSignals() if handle_sigint else None
     with flag if flag is not None else contextlib.nullcontext():
@@ -113,8 +120,8 @@ def run_patrol(machine: PatrolMachine, time_limit: float | None = None, realtime
                 machine.request_preempt(flag.reason)
             if time_limit is not None and sim.clock.now >= time_limit and not machine.preempt_requested:
                 machine.request_preempt("time limit")
-            if step_limit is not None and sim.clock.steps >= step_limit and not machine.preempt_requested:
-                log.info("%d steps of %g s run: preempting the patrol", max_steps, sim.config.dt)
+            if step_limit is not None and steps >= step_limit and not machine.preempt_requested:
+                log.info("%d steps run: preempting the patrol", max_steps)
                 machine.request_preempt(f"step limit of {max_steps} steps")
             if machine.preempt_requested:
                 preempt_at = sim.clock.now if preempt_at is None else preempt_at
@@ -123,7 +130,8 @@ def run_patrol(machine: PatrolMachine, time_limit: float | None = None, realtime
                     sim.halt()
                     break
             sim.step()
-            if realtime:
+            steps += 1
+            if paced:
                 ahead = (sim.clock.now - sim0) / speed - (time.perf_counter() - wall0)
                 if ahead > 0:
                     time.sleep(ahead)

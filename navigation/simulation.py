@@ -30,6 +30,7 @@ from .maps import OccupancyMap
 from .move_base import MoveBase, MoveBaseParams
 from .planner import Planner, PlannerParams
 from .robot import DiffDriveRobot, Odometry, RobotParams
+from .robot_interface import RobotReport
 from .world import World
 
 log = logging.getLogger(__name__)
@@ -71,7 +72,14 @@ class SimConfig:
 
 
 class Simulation:
-    """World, robot, batteries, dock and move_base on one simulation clock."""
+    """World, robot, batteries, dock and move_base on one simulation clock.
+
+    It is the built-in :class:`~navigation.robot_interface.PatrolRobot` (``--robot sim``): the patrol drives it
+    through that protocol only, so a live robot can take its place.
+    """
+
+    #: Simulated time: the runner may run it flat out (bounded in steps) or paced to the wall clock.
+    wall_clock = False
 
     def __init__(self, occ_map: OccupancyMap, start: Pose2D, config: SimConfig | None = None,
                  station: DockingStation | None = None, field_: ObstacleField | None = None,
@@ -236,6 +244,19 @@ class Simulation:
     def odometry_drift(self) -> float:
         """Distance between the odometry estimate and the true pose: what amcl has to correct."""
         return self.odometry_in_map().distance_to(self.robot.pose)
+
+    def report(self) -> RobotReport:
+        """Distance, collisions, odometry drift and the localizer's error, for the run's summary."""
+        loc = self.localizer
+        return RobotReport(
+            distance=self.distance, odometry_drift=self.odometry_drift(), collisions=self.collisions,
+            localization=self.config.localization,
+            localization_error_mean=loc.errors.mean if loc is not None else 0.0,
+            localization_error_max=loc.errors.max if loc is not None else 0.0,
+            localization_updates=loc.updates if loc is not None else 0)
+
+    def close(self) -> None:
+        """Nothing to release: the simulator holds no connections (a live robot's ``close`` leaves its network)."""
 
     def run_for(self, seconds: float) -> None:
         """Step until ``seconds`` of simulation time have passed (for tests and tools)."""

@@ -15,7 +15,7 @@ objrec_ros) only when a spec names a bag.
 from __future__ import annotations
 
 from collections import deque
-from collections.abc import Iterator
+from collections.abc import Iterable, Iterator
 from typing import Any
 
 from objrec_core import SourceSpec, Str
@@ -50,6 +50,25 @@ def _namespace(topic: str) -> str:
 
 def as_point_cloud(arrays: CloudArrays) -> PointCloud:
     return PointCloud(arrays.points, arrays.colors, arrays.width, arrays.height)
+
+
+def pointcloud2_cloud(message: Any) -> PointCloud:
+    """A ``sensor_msgs/PointCloud2`` as a frame (the live source reads it the same way)."""
+    return as_point_cloud(pointcloud2_arrays(message))
+
+
+def depth_image_cloud(depth: Any, info: Any, color: Any = None) -> PointCloud:
+    """A depth ``Image`` with its ``CameraInfo`` (and a colour ``Image`` or None) as an organized cloud, as
+    both the bag and the live source pair them; DecodeError when they do not fit."""
+    rgb = None if color is None else image_to_rgb(color)
+    return as_point_cloud(depth_cloud(depth, info, rgb))
+
+
+def nearest_by_stamp(stamp: float, candidates: Iterable[tuple[float, Any] | None]) -> Any:
+    """The message among ``(stamp, message)`` candidates (None ones left out) nearest to ``stamp``, or None:
+    the colour image a depth image takes."""
+    present = [c for c in candidates if c is not None]
+    return min(present, key=lambda c: abs(c[0] - stamp))[1] if present else None
 
 
 class CloudBagSource(BagSource):
@@ -155,7 +174,7 @@ class CloudBagSource(BagSource):
     def _decoded(self) -> Iterator[Decoded]:
         if self.info_topic is None:
             for log_time, message in self.recording.messages(self.topic_info.name, self.start, self.end):
-                cloud = as_point_cloud(pointcloud2_arrays(message))
+                cloud = pointcloud2_cloud(message)
                 yield log_time, header_stamp_ns(message, log_time), header_frame_id(message), cloud
             return
         yield from self._depth_frames()
@@ -167,13 +186,11 @@ class CloudBagSource(BagSource):
         previous: tuple[float, Any] | None = None  # the last colour image seen: (stamp, message)
 
         def make(log_time: int, depth: Any, depth_info: Any, color: Any) -> Decoded:
-            rgb = None if color is None else image_to_rgb(color)
-            cloud = as_point_cloud(depth_cloud(depth, depth_info, rgb))
+            cloud = depth_image_cloud(depth, depth_info, color)
             return log_time, header_stamp_ns(depth, log_time), header_frame_id(depth), cloud
 
         def nearest(stamp: float, later: tuple[float, Any] | None) -> Any:
-            options = [c for c in (previous, later) if c is not None]
-            return min(options, key=lambda c: abs(c[0] - stamp))[1] if options else None
+            return nearest_by_stamp(stamp, (previous, later))
 
         topics = [t for t in (depth_topic, info_topic, color_topic) if t]
         for topic, log_time, message in self.recording.merged(topics, self.start, self.end):

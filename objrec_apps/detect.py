@@ -16,7 +16,7 @@ import logging
 import os
 import signal
 import sys
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterable, Iterator, Sequence
 from dataclasses import dataclass
 from functools import partial
 from pathlib import Path
@@ -39,10 +39,11 @@ from strictio.cli_numbers import CommandLineParser, check_limit_settings
 from strictio.shown import printable
 from strictio.signals import StopSignals
 
-from . import explain, outputs
+from . import explain, live_outputs, outputs
 from .annotation_writer import AnnotationError
 from .cli import MAX_FRAMES, MESSAGE_LIMIT, USER_ERROR, UserError, configure_logging, report
 from .detection_outputs import OUTPUT_OPTION, DetectionLines, TypedDetections
+from .foxglove_view import FoxgloveView, add_foxglove_argument
 from .output_contract import Ending, Output, RunEnd, close_outputs
 from .side_outputs import Pictures, Reasons, RerunRecording
 
@@ -59,7 +60,8 @@ def build_parser() -> argparse.ArgumentParser:
         "typed ROS messages in an MCAP file or a bag.",
         epilog="Sources: a path (image, video, folder, cloud file, .bag, .mcap, ROS 2 bag folder) or "
         "scheme:key=value,... such as demo, demo:seed=3,frames=100, camera:0, rgbd:COLOR,DEPTH, "
-        "bag:PATH,topic=NAME. The parameter file's kind decides which are read.",
+        "bag:PATH,topic=NAME, or a live topic: ros1:/TOPIC[,master=URI,timeout=S], ros2:/TOPIC[,domain=N]. "
+        "The parameter file's kind decides which are read.",
     )
     parser.add_argument("params", metavar="PARAMS_FILE", nargs="?",
                         help="parameter file (YAML) of a recognition system")
@@ -75,7 +77,14 @@ def build_parser() -> argparse.ArgumentParser:
                         help="with a bag source and a typed output: copy the topics it reads too (a depth "
                         "topic with its CameraInfo and colour topics), so the output replays with its detections")
     parser.add_argument("--list-topics", metavar="SOURCE",
-                        help="print the topics, types and message counts of a bag or MCAP file, and exit")
+                        help="print the topics, types and message counts of a bag or MCAP file, or the topics "
+                        "live now on ros1: (ros1:,master=URI) or ros2: (ros2:,domain=N), and exit")
+    parser.add_argument(live_outputs.PUBLISH_OPTION, action="append", default=[], metavar="TARGET",
+                        help="also publish the detections live as typed ROS messages: ros1:/TOPIC[,master=URI] "
+                        "or ros2:/TOPIC[,domain=N] (repeatable)")
+    parser.add_argument(live_outputs.ANNOTATED_OPTION, action="append", default=[], metavar="TARGET",
+                        help="also publish each frame with its detections drawn as a sensor_msgs/Image "
+                        "(bgr8), on ros1:/TOPIC or ros2:/TOPIC (repeatable)")
     parser.add_argument("--max-frames", "-n", type=MAX_FRAMES, metavar="N",
                         help=f"stop after N frames ({MAX_FRAMES.describe()})")
     parser.add_argument("--frame-id", default="camera",
@@ -84,6 +93,7 @@ def build_parser() -> argparse.ArgumentParser:
         "--rerun", metavar="FILE.rrd|spawn",
         help="also log every frame, stage and detection to a Rerun recording (needs objrec[viz])",
     )
+    add_foxglove_argument(parser)
     parser.add_argument(
         "--annotate", metavar="PATH", help="also write pictures: a video (.avi/.mp4) or a folder of PNGs"
     )
@@ -149,6 +159,10 @@ def _open(args: argparse.Namespace) -> tuple[DetectionDirector, FrameSource, Kin
 
 def _check_output_options(args: argparse.Namespace) -> None:
     """The output options that can be judged before anything is opened."""
+    for option, targets in ((live_outputs.PUBLISH_OPTION, args.publish),
+                            (live_outputs.ANNOTATED_OPTION, args.publish_annotated)):
+        for target in targets:
+            live_outputs.live_target(target, option)  # a bad topic is refused before the source is waited for
     if args.output and outputs.is_typed_output(args.output):
         outputs.require_rosbags(f"--output {args.output}")
         if args.output_topic:
@@ -162,9 +176,13 @@ def _check_output_options(args: argparse.Namespace) -> None:
 def _list_topics(args: argparse.Namespace, stdout: IO[str]) -> int:
     outputs.require_rosbags("--list-topics")
     from objrec_ros.bags import list_topics
+    from objrec_ros.live.listing import is_live_spec, list_live_topics
 
     try:
-        text = list_topics(outputs.recording_path(args.list_topics))
+        if is_live_spec(args.list_topics):
+            text = list_live_topics(args.list_topics)
+        else:
+            text = list_topics(outputs.recording_path(args.list_topics))
     except SourceError as exc:
         raise UserError(str(exc)) from None
     stdout.write(text + "\n")
@@ -199,6 +217,10 @@ def _recording(run: RunInputs) -> Output | None:
     return RerunRecording(run.args.rerun, run.kind, run.director.system) if run.args.rerun else None
 
 
+def _live_view(run: RunInputs) -> Output | None:
+    return FoxgloveView(run.args.foxglove, run.kind, run.director.system) if run.args.foxglove else None
+
+
 def _detections(run: RunInputs) -> Output:
     """Typed messages where ``--output`` names a bag or MCAP file, else JSON Lines (stdout without it)."""
     args = run.args
@@ -216,13 +238,30 @@ def _pictures(run: RunInputs) -> Output | None:
     return Pictures(run.args.annotate, run.kind, debug=run.args.annotate_view == "debug")
 
 
+def _published(run: RunInputs) -> Iterator[Output]:
+    """One live publisher per ``--publish`` target, each on its own topic. Made one at a time, so the ones
+    made before a target that fails are attached, and closed with the others."""
+    array_type = run.director.system.object_array_type
+    for target in run.args.publish:
+        yield live_outputs.LiveDetections(target, array_type, skip_empty=run.args.skip_empty)
+
+
+def _published_pictures(run: RunInputs) -> Iterator[Output]:
+    for target in run.args.publish_annotated:
+        yield live_outputs.LiveAnnotated(target, run.kind)
+
+
 #: objrec-detect's outputs by the option that asks for each, in the order they are opened (and closed the
-#: other way round); an entry gives None where its option is not given.
-OUTPUTS: dict[str, Callable[[RunInputs], Output | None]] = {
+#: other way round); an entry gives None (or no outputs) where its option is not given, several (an iterable,
+#: each attached as soon as it is made) where the option is repeated.
+OUTPUTS: dict[str, Callable[[RunInputs], Output | Iterable[Output] | None]] = {
     explain.OPTION: _reasons,
     "--rerun": _recording,
+    "--foxglove": _live_view,
     OUTPUT_OPTION: _detections,
     "--annotate": _pictures,
+    live_outputs.PUBLISH_OPTION: _published,
+    live_outputs.ANNOTATED_OPTION: _published_pictures,
 }
 #: What ends a run early with one line (anything else is a user mistake found late, or a bug).
 _RUN_FAILURES = (SourceError, InputError, OutputError, AnnotationError, explain.ExplainWriteError, OSError)
@@ -241,8 +280,8 @@ def run(args: argparse.Namespace, stdout: IO[str]) -> int:
     with StopSignals(escalate=(signal.SIGINT,)) as stop:
         try:
             for open_output in OUTPUTS.values():
-                output = open_output(inputs)
-                if output is not None:
+                made = open_output(inputs)
+                for output in [made] if isinstance(made, Output) else made or ():
                     output.attach(director)
                     opened.append(output)
             bar = bool(args.progress) if any(o.uses_stderr for o in opened) else args.progress  # no bar amid reasons
@@ -260,12 +299,15 @@ def run(args: argparse.Namespace, stdout: IO[str]) -> int:
             end = _failed(exc, director.stats.frames, opened, args)
         finally:
             status = close_outputs(opened, end, partial(report, PROG))
+            source_summary = source.run_summary()  # what a live source received and dropped
             source.close()
     if status:
         return status
     stats = director.stats
     print(f"{PROG}: {stats.frames} frames, {stats.objects} objects, {stats.seconds:.2f} s, {stats.rate:.1f} frames/s",
           file=sys.stderr)
+    if source_summary:
+        print(f"{PROG}: {printable(source_summary, limit=MESSAGE_LIMIT)}", file=sys.stderr)
     for output in reversed(opened):
         line = output.summary()
         if line:

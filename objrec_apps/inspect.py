@@ -17,6 +17,7 @@ import sys
 from collections.abc import Sequence
 from pathlib import Path
 
+from foxgloveio.server import FoxgloveUnavailable, add_foxglove_argument
 from navigation.cli import COORDINATE, LAPS, TIME_LIMIT, YAW, format_summary
 from navigation.diagram import write_diagram
 from navigation.geometry import Pose2D
@@ -26,6 +27,7 @@ from strictio.cli_numbers import CommandLineParser, Number, check_limit_settings
 from strictio.signals import StopSignals
 
 from .cli import USER_ERROR, configure_logging, report
+from .foxglove_inspection import InspectionView
 from .inspection import Inspection, InspectionError, open_inspection
 
 log = logging.getLogger("objrec.inspect")
@@ -61,6 +63,7 @@ def build_parser() -> argparse.ArgumentParser:
                         help="the robot meets this object shifted by DX, DY metres (repeatable)")
     add_simulation_options(p)
     p.add_argument("--diagram", metavar="PATH", help="Mermaid diagram of the machine with the mission's states")
+    add_foxglove_argument(p)
     p.add_argument("-v", "--verbose", action="store_true", help="log progress on stderr")
     return p
 
@@ -90,6 +93,14 @@ def run(args: argparse.Namespace, early: StopSignals) -> int:
     inspection = _open(args)
     sim, machine = inspection.sim, inspection.machine
     out = Path(args.out)
+    view: InspectionView | None = None
+    if args.foxglove:
+        try:
+            view = InspectionView(args.foxglove, inspection)
+        except FoxgloveUnavailable as exc:
+            raise InspectionError(str(exc)) from None
+        sys.stderr.write(f"{PROG}: Foxglove live view on {view.url}\n")
+        sys.stderr.flush()
     try:
         if args.diagram:
             write_diagram(args.diagram, machine)
@@ -105,6 +116,8 @@ def run(args: argparse.Namespace, early: StopSignals) -> int:
         raise InspectionError(f"{exc.filename or out}: cannot be written: {exc.strerror or exc}") from None
     finally:
         sim.events.close()
+        if view is not None:
+            view.close()
     written = inspection.write(summary)
     sys.stdout.write(format_summary(summary) + "\n" + "\n".join(_verdict_lines(inspection)) + "\n")
     sys.stdout.write(f"{'report:':16s}{written[1]}\n")

@@ -39,14 +39,15 @@ def default_topic(object_name: str) -> str:
     return f"/objrec/{token}"
 
 
-def check_topic(topic: str) -> str:
-    """A user's ``--output-topic``, made absolute; refused (one line) where ROS would refuse it."""
+def check_topic(topic: str, given_as: str | None = None) -> str:
+    """A user's ``--output-topic`` (or the topic of what ``given_as`` names, such as ``--publish ros1:/x``),
+    made absolute; refused (one line) where ROS 1 or ROS 2 would refuse it."""
     name = topic.strip()
     absolute = name if name.startswith("/") else f"/{name}"
     parts = absolute[1:].split("/")
     if not name or any(not _TOPIC_TOKEN.fullmatch(p) or "__" in p for p in parts):
-        raise UserError(f"--output-topic {topic!r}: not a valid ROS topic name (name parts of letters, digits and "
-                        "single underscores, each starting with a letter, separated by /)")
+        raise UserError(f"{given_as or f'--output-topic {topic!r}'}: not a valid ROS topic name (name parts of "
+                        "letters, digits and single underscores, each starting with a letter, separated by /)")
     return absolute
 
 

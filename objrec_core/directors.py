@@ -19,7 +19,7 @@ from typing import Any, Protocol
 
 from .messages import DetectedObjectArray, Header
 from .modules import Detector, Filter, Rect, SelectionRefused
-from .sources import Frame
+from .sources import Frame, FrameSource
 from .system import PipelineError, RecognitionSystem, Stage
 
 log = logging.getLogger(__name__)
@@ -141,6 +141,8 @@ class _Director:
     def _frames(source: Iterable[Any], max_frames: int | None, stop: threading.Event | None) -> Iterator[Frame]:
         """Frames until ``max_frames`` or ``stop``, never pulling one more than is processed: a camera asked
         for one frame too many could fail after the work was done."""
+        if stop is not None and isinstance(source, FrameSource):
+            source.watch_stop(stop)  # a live source waiting for its next frame ends that wait on a stop
         if max_frames is not None:
             source = itertools.islice(source, max_frames)
         for index, item in enumerate(source):

@@ -10,6 +10,7 @@ options with the same declarations as module parameters, so they are validated t
 from __future__ import annotations
 
 import re
+import threading
 import time
 from abc import ABC, abstractmethod
 from collections.abc import Iterator, Mapping
@@ -206,6 +207,17 @@ class FrameSource(ABC):
         the ones before where the source can skip them; an index past the end gives no frames. Only where
         ``seekable``: SourceError otherwise. A fresh iterator each call, independent of ``__iter__``'s."""
         raise SourceError(f"{self.name}: this source cannot start at frame {index} (it is not seekable)")
+
+    # -- live sources (optional) --------------------------------------------------------------------------
+    def watch_stop(self, stop: threading.Event) -> None:  # noqa: B027 - most sources never wait without end
+        """Hear of the run's stop request. A source that may wait for its next frame without end (a live
+        topic whose camera went quiet) ends that wait, and its iteration, once ``stop`` is set, so Ctrl-C or
+        SIGTERM still ends the run. The directors call this before iterating; other sources ignore it."""
+
+    def run_summary(self) -> str | None:
+        """One line on what the source itself saw, for the end of a run (a live topic: messages received and
+        frames dropped because a newer one came first), or None."""
+        return None
 
     def close(self) -> None:  # noqa: B027 - most sources hold nothing to release
         """Release what the source holds."""

@@ -42,7 +42,8 @@ from objrec_core import DetectedObjectArray
 from strictio import OutputError
 from strictio.atomic import is_read_only, remove_stale_temporaries, temporary_path
 
-from .msgdefs import MessageDefinitionError, message_from_dict, register_definitions, standard_typestore
+from .encode import DetectionEncoder
+from .msgdefs import standard_typestore
 
 log = logging.getLogger(__name__)
 
@@ -108,9 +109,9 @@ class DetectionWriter:
         self.topic = topic
         self.ros_version = 1 if self.format == ROS1_BAG else 2
         self.count = 0
-        self._ros_type = _ros_type(array_type)
-        self.typestore = standard_typestore(self.ros_version)
-        register_definitions(self.typestore, self._ros_type, array_type.ros_definitions)
+        self._encoder = DetectionEncoder(array_type, self.ros_version)  # the bytes a live publisher sends too
+        self._ros_type = self._encoder.ros_type
+        self.typestore = self._encoder.typestore
         self._target = self._check_target(Path(os.path.realpath(path)))  # a link: its target is replaced
         self._tmpdir: Path | None = None
         self._writer: Writer1 | Writer2 | None = None
@@ -199,19 +200,9 @@ class DetectionWriter:
         """Write one array as a message, logged at its header stamp (after the copied input up to then)."""
         if self._writer is None:
             raise OutputError(self.shown, "is closed")
-        data = array.to_dict()
-        stamp = data["header"]["stamp"]
+        stamp = array.header.to_dict()["stamp"]
         log_time = int(stamp["secs"]) * 1_000_000_000 + int(stamp["nsecs"])
-        try:
-            message = message_from_dict(self.typestore, self._ros_type, data)
-            if self.ros_version == 1:
-                raw = self.typestore.serialize_ros1(message, self._ros_type)
-            else:
-                raw = self.typestore.serialize_cdr(message, self._ros_type)
-        except MessageDefinitionError:
-            raise
-        except Exception as exc:  # a value the type cannot hold (rosbags' serializers raise struct/Serde errors)
-            raise MessageDefinitionError(f"{self._ros_type}: {exc}") from None
+        raw = self._encoder(array)
         if self._copy is not None:
             self._copy.until(log_time)
         self._write(self._connection, log_time, raw)
@@ -407,14 +398,6 @@ def _same_layout(source: Typestore, target: Typestore, msgtype: str) -> bool:
         if inner[0] == Nodetype.NAME and not _same_layout(source, target, inner[1]):
             return False
     return True
-
-
-def _ros_type(array_type: type[DetectedObjectArray]) -> str:
-    ros_type = getattr(array_type, "ros_type", None)
-    if not ros_type or not getattr(array_type, "ros_definitions", None):
-        raise MessageDefinitionError(f"{array_type.__name__} declares no ros_type and ros_definitions, so its "
-                                     "arrays cannot be written as ROS messages")
-    return ros_type
 
 
 def open_detection_writer(

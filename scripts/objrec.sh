@@ -40,6 +40,30 @@ install_system_packages() {
   $sudo env DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends "${resolved[@]}" >/dev/null
 }
 
+# Test-only: Debian's ROS 1 (a real master, rospy nodes, rosbag) for the live-topic tests, which talk to them
+# over loopback. objrec itself never needs ROS installed. Where a package is missing (not Debian 12, or no
+# network), the tests that need it skip and say so; nothing else depends on it.
+ROS1_TEST_PACKAGES=(python3-rospy python3-rosbag python3-rosmaster python3-rostopic python3-genpy
+                    python3-std-msgs python3-sensor-msgs python3-geometry-msgs python3-nav-msgs
+                    python3-actionlib-msgs python3-move-base-msgs)
+install_ros1_test_packages() {
+  command -v dpkg-query >/dev/null 2>&1 || return 0
+  local missing=() p
+  for p in "${ROS1_TEST_PACKAGES[@]}"; do
+    installed "$p" || missing+=("$p")
+  done
+  [ ${#missing[@]} -eq 0 ] && return 0
+  local sudo=""
+  if [ "$(id -u)" -ne 0 ]; then
+    command -v sudo >/dev/null 2>&1 || { say "no root or sudo: the ROS 1 live tests will skip"; return 0; }
+    sudo="sudo"
+  fi
+  say "installing Debian's ROS 1 for the live tests: ${missing[*]}"
+  $sudo env DEBIAN_FRONTEND=noninteractive apt-get update -qq || true
+  $sudo env DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends "${missing[@]}" \
+    >/dev/null 2>&1 || say "Debian's ROS 1 packages could not be installed here: the ROS 1 live tests will skip"
+}
+
 # Installed under its name or its t64-renamed successor.
 installed() {
   local name
@@ -81,6 +105,7 @@ case "${1:-}" in
     exec "$VENV/bin/objrec-detect" params/hsv_demo.yaml --source demo --max-frames 100 "$@" ;;
   test)
     setup
+    install_ros1_test_packages
     shift
     export QT_QPA_PLATFORM=offscreen
     # Lint first: a finding fails the command before the (long) suite runs, in CI as on a developer's machine.

@@ -74,9 +74,12 @@ CLOUD_POINTS = Limit("cloud_points", "points", 20_000_000, "a point cloud, point
 MAP_CELLS = Limit("map_cells", "cells", 25_000_000, "an occupancy map, width x height cells")
 POSES = Limit("poses", "poses", 10_000, "a pose file, poses")
 YAML_NODES = Limit("yaml_nodes", "nodes", 1_000_000, "a YAML document, values and collections")
+#: A 4K RGB image is 25 MB, a 20-million-point cloud (the cloud limit) of x, y, z, rgb some 320 MB.
+LIVE_MESSAGE_BYTES = Limit("live_message_bytes", "bytes", 1 << 30,
+                           "a live ROS 1 message from a peer (TCPROS), serialized")
 
 #: Every declared limit, in the order the documentation lists them.
-ALL_LIMITS: tuple[Limit, ...] = (IMAGE_PIXELS, CLOUD_POINTS, MAP_CELLS, POSES, YAML_NODES)
+ALL_LIMITS: tuple[Limit, ...] = (IMAGE_PIXELS, CLOUD_POINTS, MAP_CELLS, POSES, YAML_NODES, LIVE_MESSAGE_BYTES)
 
 
 def check(path: object, limit: Limit, claimed: int, what: str = "", where: str = "") -> None:

@@ -42,6 +42,7 @@ from objrec_core import (
 from .changes import ChangeTracker
 from .export_script import export_dialog
 from .eyedropper import Eyedropper
+from .live_topic_dialog import LiveTopicDialog
 from .message_area import MessageArea, detector_reasons, is_file_error, selection_report
 from .panel_column import PanelColumn
 from .parameter_files import ParameterFiles
@@ -88,6 +89,13 @@ def default_settings() -> QSettings:
     return QSettings("objrec", "objrec-define")
 
 
+def live_counts(source: FrameSource | None) -> tuple[int, int] | None:
+    """A live topic's (received, dropped) messages (objrec_ros.live.source.LiveSource counts them), None for
+    any other source: read from the GUI thread, they are two counters, never a read of the source itself."""
+    received, dropped = getattr(source, "received", None), getattr(source, "dropped", None)
+    return (received, dropped) if isinstance(received, int) and isinstance(dropped, int) else None
+
+
 #: The message dock's height on a first run, in pixels: the detector line and about four messages.
 MESSAGES_HEIGHT = 130
 
@@ -123,6 +131,10 @@ class DefinitionGUI(QMainWindow):
         self._source_kind: str | None = None
         #: A spec of several kinds, opened once the pipeline has a kind.
         self._waiting_spec: str | None = None
+        #: The worker's count of frames it dropped when the source on screen opened.
+        self._dropped_before = 0
+        #: The last File > Open topic dialog (None before the first).
+        self.topic_dialog: LiveTopicDialog | None = None
         self._kind_missing_reported = False
         self._last_results: StageResults | None = None
         #: The parameter generation of the frame on screen (compare with ``worker.generation``).
@@ -193,6 +205,8 @@ class DefinitionGUI(QMainWindow):
         bar = self.menuBar()
         file_menu = bar.addMenu("&File")
         self.open_action = self._action(file_menu, "&Open…", QKeySequence.StandardKey.Open, self.files.open)
+        self.open_topic_action = self._action(file_menu, "Open &topic…", QKeySequence("Ctrl+T"), self.open_topic)
+        self.open_topic_action.setToolTip("Tune on a live ROS 1 or ROS 2 topic: list what is published, open one")
         self.save_action = self._action(file_menu, "&Save", QKeySequence.StandardKey.Save, self.files.save)
         self.save_as_action = self._action(file_menu, "Save &As…", QKeySequence("Ctrl+Shift+S"), self.files.save_as)
         file_menu.addSeparator()
@@ -251,6 +265,7 @@ class DefinitionGUI(QMainWindow):
         self.source_bar.sourceRequested.connect(self.open_source)
         self.source_bar.pauseToggled.connect(self.set_paused)
         self.source_bar.stepRequested.connect(self.worker.step)
+        self.source_bar.topicRequested.connect(self.open_topic)
         self.source_bar.folderUsed.connect(self.files.remember_folder)
         self.files.message.connect(self.show_message)
         self.files.message.connect(lambda text: is_file_error(text) and self.message_area.show_dialog(text))
@@ -305,6 +320,18 @@ class DefinitionGUI(QMainWindow):
         self.view3d.set_busy(f"opening {spec}…")  # a large cloud can take seconds: say so, not a black view
         self.worker.open_source(spec, kind)
 
+    def open_topic(self) -> LiveTopicDialog:
+        """File > Open topic…: a dialog listing the live topics (live_topic_dialog.py); the chosen one opens as
+        the source. Window-modal but not blocking (``open``, not ``exec``): the source on screen keeps playing
+        while the listing waits for a master. The dialog is returned (and kept as ``topic_dialog``)."""
+        dialog = LiveTopicDialog(self.system.kind, self)
+        dialog.message.connect(self.show_message)
+        dialog.accepted.connect(lambda: self.open_source(dialog.spec))
+        dialog.finished.connect(lambda _result: dialog.deleteLater())
+        self.topic_dialog = dialog
+        dialog.open()
+        return dialog
+
     def ask_choice(self, title: str, labels: list[str]) -> str | None:
         """One of ``labels``, chosen by the user in a dialog; None when cancelled."""
         label, ok = QInputDialog.getItem(self, "objrec-define", title, labels, 0, False)
@@ -334,6 +361,7 @@ class DefinitionGUI(QMainWindow):
     def _source_opened(self, name: str, kind: str) -> None:
         if kind:
             self._source_kind = kind
+        self._dropped_before = self.worker.dropped
         self.source_bar.set_source_name(name)
         self.show_message(f"Source: {name}")
         self.stage_views.clear()
@@ -411,7 +439,9 @@ class DefinitionGUI(QMainWindow):
         self._last_results = results
         self.last_shown_generation = shown.generation
         self.frame_rate.tick(time.perf_counter())
-        self.source_bar.set_rates(self.frame_rate.rate(), results.seconds * 1000, self.worker.dropped)
+        live = live_counts(self.worker.source)
+        dropped = self.worker.dropped - (self._dropped_before if live is not None else 0)  # a topic's: its own
+        self.source_bar.set_rates(self.frame_rate.rate(), results.seconds * 1000, dropped, live)
         self.message_area.show_detectors(detector_reasons(results))
         self.panels.show_results(results)
         self.frameShown.emit(shown)
@@ -500,12 +530,16 @@ class DefinitionGUI(QMainWindow):
             self.resize(1280, 800)
         if isinstance(state, QByteArray | bytes):
             self.restoreState(QByteArray(state))
+            hidden_for_stream = str(self.settings.value("window/seek_bar_hidden_for_stream", "false")).lower()
+            self.seek_bar.hidden_for_stream = hidden_for_stream == "true" and not self.seek_bar.isVisibleTo(self)
         else:  # a first run: the messages take a strip at the bottom, the views the room
             self.resizeDocks([self.message_area], [MESSAGES_HEIGHT], Qt.Orientation.Vertical)
 
     def save_layout(self) -> None:
         self.settings.setValue("window/geometry", self.saveGeometry())
         self.settings.setValue("window/state", self.saveState())
+        # hidden for the stream on screen, not by the user: the next run shows it again for a recording
+        self.settings.setValue("window/seek_bar_hidden_for_stream", self.seek_bar.hidden_for_stream)
         self.settings.setValue("view/mode", self.stage_views.mode)
         self.settings.sync()
 

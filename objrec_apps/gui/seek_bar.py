@@ -3,7 +3,9 @@
 A slider over the frames with a counter ("frame 12 / 300"), the file name for folders (each frame of a folder
 is a file of its own), loop on/off and the rate of sources that have none of their own (a folder of images
 would otherwise run through in seconds). It is enabled only for seekable sources of known length (videos,
-folders, cloud files, bags); a camera or an endless demo has nothing to seek in.
+folders, cloud files, bags). A stream (a live topic, a camera, the endless demo: no length and no seeking) has
+nothing to seek in, not even an end: the bar is hidden for it, not left greyed out taking a row, and shown
+again for the next recording (unless the user hid it from the View menu).
 """
 
 from __future__ import annotations
@@ -30,6 +32,11 @@ class SourceFacts:
     @classmethod
     def of(cls, source: FrameSource) -> SourceFacts:
         return cls(source.name, source.length, source.seekable, source.rate)
+
+    @property
+    def is_stream(self) -> bool:
+        """Frames that only come and go (a live topic, a camera, the endless demo): no length, no seeking."""
+        return self.length is None and not self.seekable
 
 
 class SeekBar(QToolBar):
@@ -77,11 +84,13 @@ class SeekBar(QToolBar):
         self.addWidget(self.rate_box)
         self.length: int | None = None
         self.source_name = ""
+        #: Hidden by set_source for a stream (not by the user): shown again for the next recording.
+        self.hidden_for_stream = False
         self.set_source(None)
 
     def set_source(self, source: SourceFacts | None) -> None:
-        """Follow a newly opened source: a range for seekable ones of known length, disabled otherwise; the
-        rate box only where the source has no rate of its own."""
+        """Follow a newly opened source: a range for seekable ones of known length, disabled otherwise (hidden
+        for a stream); the rate box only where the source has no rate of its own."""
         length = source.length if source is not None else None
         seekable = source is not None and source.seekable and length is not None and length > 0
         self.length = length if seekable else None
@@ -97,6 +106,19 @@ class SeekBar(QToolBar):
         self.rate_label.setText(f" {own_rate:.3g} frames/s (the source's own) " if own_rate else " rate ")
         self.counter.setText(" no recording to seek in " if not seekable else f" frame - / {length} ")
         self.file_label.setText("")
+        self._follow_stream(source is not None and source.is_stream)
+
+    def _follow_stream(self, stream: bool) -> None:
+        """Hide the bar for a stream; show it again afterwards only if it was this that hid it, so a bar the
+        user closed (View menu, or a layout restored so) stays closed."""
+        parent = self.parentWidget()
+        shown = self.isVisibleTo(parent) if parent is not None else not self.isHidden()
+        if stream and shown:
+            self.hidden_for_stream = True
+            self.setVisible(False)
+        elif not stream and self.hidden_for_stream:
+            self.hidden_for_stream = False
+            self.setVisible(True)
 
     def set_position(self, index: int, length: int, where: str) -> None:
         """The frame just read: its number (shown 1-based), the source's length (-1 unknown) and where it came

@@ -1,5 +1,6 @@
-"""Source controls: choose the demo, a camera, a file, a folder or any source spec; pause, resume, single
-step; fps. The file dialog offers what the installed source types of the pipeline's kind read."""
+"""Source controls: choose the demo, a camera, a file, a folder, a live topic or any source spec; pause, resume,
+single step; fps. The file dialog offers what the installed source types of the pipeline's kind read; a live
+topic is chosen in the window's File > Open topic dialog (``topicRequested``)."""
 
 from __future__ import annotations
 
@@ -13,7 +14,9 @@ from PySide6.QtWidgets import QComboBox, QFileDialog, QLabel, QLineEdit, QPushBu
 
 from objrec_core import source_entries, source_usage
 
-KINDS = ("demo", "camera", "file", "folder", "spec")
+from .topic_chooser import is_live_spec
+
+KINDS = ("demo", "camera", "file", "folder", "topic", "spec")
 
 
 def file_filter(kind: str | None) -> str:
@@ -25,8 +28,11 @@ def file_filter(kind: str | None) -> str:
 
 
 def chooser_kind(name: str) -> str:
-    """Which entry of the chooser an open source's name is: demo, camera, file, folder, or any other spec."""
+    """Which entry of the chooser an open source's name is: demo, camera, file, folder, a live topic, or any
+    other spec."""
     head = name.partition(":")[0].lower()
+    if is_live_spec(name):
+        return "topic"
     if head == "demo":
         return "demo"
     if head == "camera" and name.partition(":")[2].isdigit():
@@ -67,6 +73,7 @@ class SourceBar(QToolBar):
     pauseToggled = Signal(bool)  # noqa: N815 - Qt's signal naming
     stepRequested = Signal()  # noqa: N815 - Qt's signal naming
     folderUsed = Signal(str)  # noqa: N815 - Qt's signal naming
+    topicRequested = Signal()  # noqa: N815 - Qt's signal naming: list the live topics to choose one
 
     def __init__(self, last_folder: Callable[[], str], parent: QWidget | None = None,
                  kind: Callable[[], str | None] = lambda: None) -> None:
@@ -78,7 +85,8 @@ class SourceBar(QToolBar):
         self.kind = QComboBox()
         self.kind.addItems(list(KINDS))
         self.kind.setToolTip("demo: the built-in synthetic scene; camera: a camera by number; file: a file a "
-                             "source reads; folder: a folder of them; spec: any source spec, typed in")
+                             "source reads; folder: a folder of them; topic: a live ROS 1 or ROS 2 topic; "
+                             "spec: any source spec, typed in")
         self.kind.currentTextChanged.connect(self._kind_changed)
         self.addWidget(self.kind)
         self.camera_number = QSpinBox()
@@ -113,7 +121,7 @@ class SourceBar(QToolBar):
         self.addAction(self.step_action)
         self.addSeparator()
         self.fps_label = QLabel()
-        sample = self._rates_text(999.9, 9999.9, 999999)
+        sample = self._rates_text(999.9, 9999.9, 999999)  # a live topic's " of N received" may widen it
         self.fps_label.setMinimumWidth(self.fps_label.fontMetrics().horizontalAdvance(sample) + 8)
         self.addWidget(self.fps_label)
 
@@ -122,11 +130,14 @@ class SourceBar(QToolBar):
         self.spec_action.setVisible(kind == "spec")
         if kind == "spec":
             self.spec_edit.setToolTip(f"Accepted: {source_usage(self.pipeline_kind())}")
-        self.open_button.setText("Open…" if kind in ("file", "folder") else "Open")
+        self.open_button.setText("Open…" if kind in ("file", "folder", "topic") else "Open")
 
     def request(self) -> None:
         """Turn the chosen kind into a spec (asking for the path where needed) and emit it."""
         kind = self.kind.currentText()
+        if kind == "topic":
+            self.topicRequested.emit()
+            return
         if kind == "demo":
             spec = "demo"
         elif kind == "camera":
@@ -165,7 +176,7 @@ class SourceBar(QToolBar):
             self.kind.setCurrentText(chosen)
             self.kind.blockSignals(False)
             self._kind_changed(chosen)
-        if chosen == "spec":
+        if chosen in ("spec", "topic"):  # a live topic's spec too: "spec" then shows it to edit (timeout=, …)
             self.spec_edit.setText(name)
         elif chosen == "camera":
             self.camera_number.setValue(int(name.partition(":")[2] or 0))
@@ -176,8 +187,21 @@ class SourceBar(QToolBar):
         self.name_label.setToolTip(f"{spec} is a source of several data kinds; the pipeline's kind decides which")
 
     @staticmethod
-    def _rates_text(shown_fps: float, processing_ms: float, dropped: int) -> str:
-        return f" {shown_fps:5.1f} frames/s shown · {processing_ms:5.1f} ms processing · {dropped} dropped "
+    def _rates_text(shown_fps: float, processing_ms: float, dropped: int, received: int | None = None) -> str:
+        of = f" of {received} received" if received is not None else ""
+        return f" {shown_fps:5.1f} frames/s shown · {processing_ms:5.1f} ms processing · {dropped} dropped{of} "
 
-    def set_rates(self, shown_fps: float, processing_ms: float, dropped: int) -> None:
-        self.fps_label.setText(self._rates_text(shown_fps, processing_ms, dropped))
+    def set_rates(self, shown_fps: float, processing_ms: float, dropped: int,
+                  live: tuple[int, int] | None = None) -> None:
+        """The rates of the frames on screen; ``dropped`` were processed but replaced before the window showed
+        them. ``live`` is a live topic's (received, dropped): its messages, and those a newer one replaced
+        before the pipeline took them; both kinds of drop are counted, out of what the topic delivered."""
+        if live is None:
+            self.fps_label.setText(self._rates_text(shown_fps, processing_ms, dropped))
+            self.fps_label.setToolTip("")
+            return
+        received, dropped_by_topic = live
+        self.fps_label.setText(self._rates_text(shown_fps, processing_ms, dropped + dropped_by_topic, received))
+        self.fps_label.setToolTip(f"{received} messages received from the topic; {dropped_by_topic} replaced by a "
+                                  f"newer one before the pipeline took them (the newest frame wins), {dropped} "
+                                  "processed but replaced before they were shown")

@@ -1,15 +1,20 @@
-"""Which topic of a recording to play: asked when a bag or MCAP file holds more than one.
+"""Which topic to play: of a recording (asked when a bag or MCAP file holds more than one), or of a live ROS 1
+or ROS 2 system (File > Open topic, listed by ``live_topic_dialog.py``).
 
-The source spec stays the one grammar: the answer becomes ``bag:PATH,topic=NAME``. Without rosbags installed
-the spec goes on unchanged and opening it says which extra to install.
+The source spec stays the one grammar: the answer becomes ``bag:PATH,topic=NAME``, or ``ros1:/TOPIC,master=URI``
+and ``ros2:/TOPIC,domain=N``. Without rosbags installed the spec goes on unchanged and opening it says which
+extra to install. Nothing here imports Qt or a transport: listing live topics is the dialog's job.
 """
 
 from __future__ import annotations
 
 import logging
-from collections.abc import Callable
+import os
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass
 
-from objrec_core import SourceError
+from objrec_core import SourceError, source_entries
+from objrec_core.source_declaration import DeclaredSource
 
 log = logging.getLogger(__name__)
 
@@ -50,3 +55,54 @@ def with_topic(spec: str, ask: Ask) -> str | None:
         return None
     topic = topics[labels.index(chosen)][0]
     return f"bag:{path},topic={topic}"
+
+
+#: The live transports' schemes and what the dialog calls them (the transports are plug-ins of objrec_ros).
+LIVE_SCHEMES = {"ros1": "ROS 1", "ros2": "ROS 2"}
+#: Where a ROS 1 master is when ROS_MASTER_URI does not say (ROS's own default).
+DEFAULT_MASTER = "http://localhost:11311"
+
+
+def is_live_spec(spec: str) -> bool:
+    """Whether ``spec`` names a live topic (``ros1:/camera/image``, ``ros2:...``)."""
+    return spec.partition(":")[0].strip().lower() in LIVE_SCHEMES and ":" in spec
+
+
+def live_defaults(environ: Mapping[str, str] | None = None) -> dict[str, str]:
+    """The address options a user's environment gives, as ROS's own tools read them: ``master`` from
+    ROS_MASTER_URI, ``domain`` from ROS_DOMAIN_ID."""
+    env = os.environ if environ is None else environ
+    domain = env.get("ROS_DOMAIN_ID", "").strip()
+    return {"master": env.get("ROS_MASTER_URI", "").strip() or DEFAULT_MASTER,
+            "domain": domain if domain.isdigit() else "0"}
+
+
+def live_spec(scheme: str, topic: str, options: Mapping[str, str]) -> str:
+    """The source spec of a live topic with its address spelled out, so the name on screen (and a copy of it
+    on a command line) reads the same topic again: ``ros1:/camera/image,master=http://…``."""
+    key = "master" if scheme == "ros1" else "domain"
+    extra = "".join(f",{k}={v}" for k, v in options.items() if k != key and v)
+    return f"{scheme}:{topic},{key}={options[key]}{extra}"
+
+
+@dataclass(frozen=True)
+class LiveReading:
+    """What the live source of a pipeline's kind reads: its message types (rosbags' form; None when not
+    known, so every topic is offered) and how it says so ("images (sensor_msgs/Image or CompressedImage)")."""
+
+    msgtypes: frozenset[str] | None
+    text: str = ""
+
+
+def live_reading(kind: str | None, scheme: str) -> LiveReading:
+    """What the live source of ``kind`` reads on ``scheme``, from its declared ``readable`` types and
+    ``readable_text`` (objrec_ros.live.source.LiveSource); a kind with no live source reads nothing."""
+    if kind is None:
+        return LiveReading(None)
+    for entry in source_entries(kind).values():
+        if scheme in entry.schemes:  # only this source's implementation is imported, not the kind's others
+            source_type = entry.load() if isinstance(entry, DeclaredSource) else entry
+            declared = getattr(source_type, "readable", None)
+            text = str(getattr(source_type, "readable_text", "") or ", ".join(sorted(declared or ())))
+            return LiveReading(frozenset(declared) if declared else None, text)
+    return LiveReading(frozenset(), "no live topic")

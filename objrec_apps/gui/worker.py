@@ -42,6 +42,12 @@ class Shown:
 UNSEEN_CHANGES = frozenset({"description", "file"})
 
 
+def waits_for_frames(source: FrameSource | None) -> bool:
+    """Whether ``source`` may wait for its next frame without end (a live topic) and so hears ``watch_stop``:
+    its iteration ends when told, and starts again where it was if the source is kept."""
+    return source is not None and type(source).watch_stop is not FrameSource.watch_stop
+
+
 class _Watcher:
     """Observes the system and its modules for the worker (from any thread)."""
 
@@ -99,6 +105,11 @@ class ProcessingWorker(QObject):
         self._reprocess_pending = False
         self._commands: list[Callable[[], None]] = []
         self._source: FrameSource | None = None
+        #: Set to end the open source's wait for its next frame (a live topic gone quiet), so opening another
+        #: source or closing the window is not held up by a camera that sends nothing.
+        self._source_stop = threading.Event()
+        #: The open source's iteration ended because ``_source_stop`` was set, not because it ran out.
+        self._interrupted = False
         #: The data kind the source delivers, where known: frames of another kind never reach the pipeline
         #: (after File > Open switches between 2D and 3D, until the new source is open).
         self._source_kind: str | None = None
@@ -132,6 +143,7 @@ class ProcessingWorker(QObject):
         """Stop the thread and close the source; safe to call twice."""
         with self._cond:
             self._stopping = True
+            self._source_stop.set()
             self._cond.notify_all()
         if self._thread is not None and self._thread is not threading.current_thread():
             self._thread.join(timeout)
@@ -235,14 +247,15 @@ class ProcessingWorker(QObject):
                 source = open_source(spec, kind)
             except Exception as exc:  # SourceError, UnknownModuleError, a camera driver's own error
                 self.failed.emit(str(exc))
+                self._keep_source()
                 return
             self._install(source, kind)
 
-        self._submit(command)
+        self._submit(command, interrupt=True)
 
     def set_source(self, source: FrameSource, kind: str | None = None) -> None:
         """Use an already opened source (of data ``kind``; None: the kind its type declares, if any)."""
-        self._submit(lambda: self._install(source, kind))
+        self._submit(lambda: self._install(source, kind), interrupt=True)
 
     def call(self, function: Callable[[], Any], done: Callable[[Any], None] | None = None) -> None:
         """Run ``function`` in the worker thread between two frames; ``done(result)`` then runs in the GUI."""
@@ -290,9 +303,13 @@ class ProcessingWorker(QObject):
             self.resultReady.emit()
 
     # -- the thread ---------------------------------------------------------------------------------------
-    def _submit(self, command: Callable[[], None]) -> None:
+    def _submit(self, command: Callable[[], None], interrupt: bool = False) -> None:
+        """Queue ``command`` for the worker thread; ``interrupt`` also ends the open source's wait for a frame
+        (a live topic gone quiet would otherwise hold the command back until its next message)."""
         with self._cond:
             self._commands.append(command)
+            if interrupt:
+                self._source_stop.set()
             self._cond.notify_all()
 
     def _watch_modules(self) -> None:
@@ -306,6 +323,9 @@ class ProcessingWorker(QObject):
 
     def _install(self, source: FrameSource, kind: str | None = None) -> None:
         old = self._source
+        with self._cond:
+            self._source_stop, self._interrupted = threading.Event(), False
+        source.watch_stop(self._source_stop)
         self._source, self._iterator, self._ended, self._last_frame = source, iter(source), False, None
         self._source_kind = kind or source.kind
         self._last_read = 0.0
@@ -319,6 +339,21 @@ class ProcessingWorker(QObject):
         self._facts = facts
         self.sourceFacts.emit(facts)
         self.sourceOpened.emit(source.name, self._source_kind or "")
+
+    def _keep_source(self) -> None:
+        """The source meant to replace the open one did not open: the open one plays on. A live topic that
+        stopped waiting to make way is iterated again (its subscription is still there: it goes on with the
+        newest frame); any other source never heard the request."""
+        source = self._source
+        with self._cond:
+            self._source_stop = threading.Event()
+        if source is None:
+            return
+        source.watch_stop(self._source_stop)
+        if self._interrupted:
+            with self._cond:
+                self._iterator, self._ended, self._interrupted = iter(source), False, False
+            log.info("%s plays on: the source meant to replace it did not open", source.name)
 
     def _has_work(self) -> bool:
         if self._commands or self._step_pending:
@@ -372,6 +407,9 @@ class ProcessingWorker(QObject):
         try:
             frame = next(iterator)
         except StopIteration:
+            if self._source_stop.is_set() and waits_for_frames(self._source):
+                self._ended = self._interrupted = True  # to make way for another source (or for closing)
+                return None
             frame = self._loop_round()
             if frame is not None:
                 self._last_frame = frame

@@ -59,7 +59,7 @@ def test_the_demo_takes_the_same_options_in_every_built_in_kind(kind):
         ("demo:frames=many", "3d", "option frames='many' is invalid: expected int"),
         ("demo:speed=2", "2d", "unknown option 'speed' (options: seed, frames)"),
         ("demo:1,2", "2d", "too many values without a key"),
-        ("ftp:x", "2d", "no such file or folder (2d sources: schemes bag:, camera:, demo:; files .avi .bag"),
+        ("ftp:x", "2d", "no such file or folder (2d sources: schemes bag:, camera:, demo:, ros1:, ros2:; files .avi .bag"),
         ("nothing/here.png", "2d", "no such file or folder"),
         ("demo", None, "a source of several kinds (2d, 3d)"),
         ("demo", "4d", "unknown data kind '4d'"),

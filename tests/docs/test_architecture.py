@@ -16,7 +16,8 @@ import pytest
 
 ROOT = Path(__file__).resolve().parents[2]
 PAGE = ROOT / "docs" / "architecture.md"
-PACKAGES = ("strictio", "declare", "rerunio", "objrec_core", "objrec2d", "objrec3d", "objrec_ros", "objrec_apps",
+PACKAGES = ("strictio", "declare", "rerunio", "foxgloveio", "objrec_core",
+            "objrec2d", "objrec3d", "objrec_ros", "objrec_apps",
             "navigation")
 _ROW = re.compile(r"^\|\s*`(\w+)`\s*\|[^|]*\|([^|]*)\|\s*$")
 
@@ -70,7 +71,8 @@ def test_the_table_says_what_each_package_imports(package: str) -> None:
     ("strictio", set()),
     ("declare", {"strictio"}),
     ("rerunio", {"strictio"}),
-    ("navigation", {"strictio", "declare", "rerunio"}),
+    ("foxgloveio", {"strictio"}),
+    ("navigation", {"strictio", "declare", "rerunio", "foxgloveio"}),
 ])
 def test_the_floor_and_navigation_import_no_objrec_package(package: str, allowed: set[str]) -> None:
     assert set(project_imports(package)) <= allowed, project_imports(package)

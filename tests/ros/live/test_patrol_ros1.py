@@ -1,0 +1,432 @@
+"""objrec-patrol --robot ros1: the patrol machine against a stand-in move_base written with rospy, on a real
+ROS 1 master over loopback. The machine's events equal the simulator's for the same outcomes; the action
+messages are Debian's (md5sums and bytes); the wall clock hands the transport's messages to the patrol's thread.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import io
+import json
+import signal
+import subprocess
+import threading
+from pathlib import Path
+from types import SimpleNamespace
+
+import pytest
+
+import navigation
+from navigation.battery import kobuki_percent
+from navigation.cli import _percent as summary_percent
+from navigation.cli import main
+from navigation.events import EventLog
+from navigation.geometry import Pose2D, quaternion_from_yaw
+from navigation.poses import load_poses
+from navigation.robot_interface import PatrolClock, PatrolRobot, machine_trace
+from navigation.robots import ROBOTS
+from objrec_apps import ros1_robot
+from objrec_apps.ros1_batteries import HostBattery, TopicBattery
+from objrec_apps.ros1_clock import WallClock
+from objrec_apps.ros1_messages import SENSOR_STATE, patrol_typestore
+from objrec_apps.ros1_robot import Ros1Robot
+from objrec_ros.msgdefs import message_from_dict
+from tests.ros.live import ros1_env
+from tests.ros.live.ros1_env import SYSTEM_PYTHON, Ros1Master, RospyNode, skip_without_ros1
+from tests.signal_steps import signal_during
+
+ros1_master = ros1_env.ros1_master  # the fixture, used by name
+
+DATA = Path(navigation.__file__).parent / "data"
+MAP = str(DATA / "b5203.yaml")
+STAND_IN = Path(__file__).with_name("rospy_move_base.py")
+STATION = Pose2D(14.4, 12.8, 0.0)
+SHIPPED = load_poses(DATA / "b5203.txt").goals
+IN_TABLE = Pose2D(12.7, 12.2, 1.57)  # inside the central table: the simulator aborts it at once
+GOALS = [SHIPPED[0], IN_TABLE, SHIPPED[2]]  # the stand-in is told to abort the second one too
+#: Hang guard for a whole run on a loaded machine (never a timing assertion).
+RUN_GUARD = 180.0
+
+# The md5sums of kobuki_msgs' auto-docking action and sensor state as the kobuki_msgs package publishes them
+# (rosserial's generated kobuki_msgs/AutoDockingActionGoal.h, AutoDockingActionResult.h, SensorState.h); Debian
+# has no kobuki_msgs.
+KOBUKI_MD5 = {"kobuki_msgs/msg/AutoDockingActionGoal": "4b30be6cd12b9e72826df56b481f40e0",
+              "kobuki_msgs/msg/AutoDockingActionResult": "3fb2b9cd9cec6b4cb23b224521dd7679",
+              "kobuki_msgs/msg/SensorState": "430a4bfd78449c8740bfef32b26613a6"}
+
+
+@pytest.fixture
+def ros1_robot_plugin():
+    """``--robot ros1`` whether or not the ``objrec.robots`` entry point is installed yet."""
+    with ROBOTS.replaced("ros1", Ros1Robot):
+        yield
+
+
+def write_poses(path: Path, goals: list[Pose2D], station: Pose2D | None) -> str:
+    def line(p: Pose2D) -> str:
+        qx, qy, qz, qw = quaternion_from_yaw(p.yaw)
+        return f"{p.x}, {p.y}, 0.0, {qx}, {qy}, {qz}, {qw}"
+
+    text = "".join(f"{line(g)}\n" for g in goals)
+    if station is not None:
+        text += f"station_pose: {line(station)}\n"
+    path.write_text(text, encoding="utf-8")
+    return str(path)
+
+
+def read_events(path: Path) -> list[dict[str, object]]:
+    return [json.loads(line) for line in path.read_text(encoding="utf-8").splitlines()]
+
+
+def summary_fields(text: str) -> dict[str, str]:
+    return {k.strip(): v.strip() for k, v in (line.split(":", 1) for line in text.strip().splitlines())}
+
+
+def run_patrol_command(args: list[str]) -> tuple[int, str, str]:
+    """objrec-patrol in-process (the ros1 plug-in registered by the fixture), with its stdout and stderr."""
+    out, err = io.StringIO(), io.StringIO()
+    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+        code = main(args)
+    return code, out.getvalue(), err.getvalue()
+
+
+def start_stand_in(master: Ros1Master, workdir: Path, *args: str) -> RospyNode:
+    node = RospyNode.start(STAND_IN, master, workdir, args=list(args), name="move_base_stand_in")
+    if node.wait_for("ready") is None:
+        node.stop()
+        pytest.fail(f"the stand-in move_base did not start: {node.diagnostics()}")
+    return node
+
+
+def stand_in_lines(node: RospyNode, kind: str, count: int) -> dict[str, list[list[str]]]:
+    """The stand-in's printed lines (goal, cancel, result), split in words and grouped by kind, read until the
+    ``count``-th line of ``kind``."""
+    found: dict[str, list[list[str]]] = {"goal": [], "cancel": [], "result": []}
+    while len(found[kind]) < count:
+        line = node.line(RUN_GUARD)
+        assert line is not None, f"the stand-in printed {found} but not {count} {kind} lines: {node.diagnostics()}"
+        words = line.split()
+        if words and words[0] in found:
+            found[words[0]].append(words)
+    return found
+
+
+# -- the messages ---------------------------------------------------------------------------------------------
+def test_action_messages_are_debians_move_base_msgs():
+    """md5sums equal Debian's python3-move-base-msgs (rospy refuses a connection otherwise) and the bytes we
+    write for a goal equal what rospy writes for the same goal."""
+    skip_without_ros1()
+    store = patrol_typestore()
+    probe = """
+import io, json
+from move_base_msgs.msg import MoveBaseActionGoal, MoveBaseActionResult, MoveBaseActionFeedback, MoveBaseGoal
+goal = MoveBaseActionGoal()
+goal.header.stamp.secs, goal.header.stamp.nsecs = 1700000000, 250000000
+goal.goal_id.id = "/objrec_patrol_1-1-1700000000.250"
+goal.goal.target_pose.header.frame_id = "map"
+goal.goal.target_pose.pose.position.x, goal.goal.target_pose.pose.position.y = 13.5, -2.25
+goal.goal.target_pose.pose.orientation.z, goal.goal.target_pose.pose.orientation.w = 0.6, 0.8
+buf = io.BytesIO(); goal.serialize(buf)
+print(json.dumps({"md5": {c.__name__: c._md5sum for c in
+                          (MoveBaseActionGoal, MoveBaseActionResult, MoveBaseActionFeedback, MoveBaseGoal)},
+                  "goal": buf.getvalue().hex()}))
+"""
+    done = subprocess.run([SYSTEM_PYTHON, "-c", probe], capture_output=True, text=True, timeout=120, check=False,
+                          env=ros1_env._base_env())
+    assert done.returncode == 0, done.stderr
+    debian = json.loads(done.stdout)
+    for name, md5 in debian["md5"].items():
+        assert store.generate_msgdef(f"move_base_msgs/msg/{name}", ros_version=1)[1] == md5, name
+    ours = message_from_dict(store, "move_base_msgs/msg/MoveBaseActionGoal", {
+        "header": {"stamp": {"sec": 1700000000, "nanosec": 250000000}},
+        "goal_id": {"id": "/objrec_patrol_1-1-1700000000.250"},
+        "goal": {"target_pose": {"header": {"frame_id": "map"},
+                                 "pose": {"position": {"x": 13.5, "y": -2.25}, "orientation": {"z": 0.6, "w": 0.8}}}}})
+    assert bytes(store.serialize_ros1(ours, "move_base_msgs/msg/MoveBaseActionGoal")).hex() == debian["goal"]
+
+
+def test_kobuki_messages_have_kobukis_md5sums():
+    store = patrol_typestore()
+    for typename, md5 in KOBUKI_MD5.items():
+        assert store.generate_msgdef(typename, ros_version=1)[1] == md5, typename
+
+
+# -- the wall clock -------------------------------------------------------------------------------------------
+def test_wall_clock_runs_posted_work_and_timers_on_the_calling_thread():
+    clock = WallClock()
+    assert isinstance(clock, PatrolClock)
+    ran: list[tuple[str, int]] = []
+    main = threading.get_ident()
+    ticks = clock.every(0.01, lambda: ran.append(("tick", threading.get_ident())), first=0.0)
+    clock.call_later(0.0, lambda: ran.append(("later", threading.get_ident())))
+    posters = [threading.Thread(target=clock.post, args=(lambda i=i: ran.append((f"post{i}", threading.get_ident())),))
+               for i in range(5)]
+    for thread in posters:
+        thread.start()
+    for thread in posters:
+        thread.join(timeout=60)
+    rounds = 0
+    while sum(1 for name, _ in ran if name == "tick") < 3:
+        clock.run_pending(0.05)
+        rounds += 1
+        assert rounds < 10_000, "the periodic timer never fired three times"
+    ticks.cancel()
+    names = [name for name, _ in ran]
+    assert sorted(n for n in names if n.startswith("post")) == [f"post{i}" for i in range(5)]
+    assert names.count("later") == 1
+    assert {ident for _, ident in ran} == {main}  # everything ran on the thread that called run_pending
+    count = len(ran)
+    clock.run_pending(0.0)
+    assert len(ran) == count  # a cancelled timer never runs again
+
+
+# -- the patrol -----------------------------------------------------------------------------------------------
+def test_patrol_on_a_rospy_move_base_gives_the_simulators_events(ros1_master, ros1_robot_plugin, tmp_path):
+    """One lap of three goals, the second aborted: by the simulator (it is inside the table) and by the
+    stand-in (told to abort it). The machine's events are the same; the stand-in got our three goals."""
+    poses = write_poses(tmp_path / "poses.txt", GOALS, STATION)
+    code, out, err = run_patrol_command([poses, "--map", MAP, "--laps", "1", "--events", str(tmp_path / "sim.jsonl")])
+    assert code == 0, err
+    sim_fields = summary_fields(out)
+    node = start_stand_in(ros1_master, tmp_path, "--abort", f"{IN_TABLE.x},{IN_TABLE.y}", "--delay", "0.3",
+                          "--start", f"{STATION.x},{STATION.y},0")
+    try:
+        code, out, err = run_patrol_command(
+            [poses, "--map", MAP, "--laps", "1", "--events", str(tmp_path / "ros.jsonl"),
+             "--render", str(tmp_path / "ros.png"), "--robot", f"ros1,master={ros1_master.uri},timeout={RUN_GUARD:g}"])
+        assert code == 0, err + node.diagnostics()
+        seen = stand_in_lines(node, "result", 3)
+        goals, results = seen["goal"], seen["result"]
+    finally:
+        node.stop()
+    sim_events, ros_events = read_events(tmp_path / "sim.jsonl"), read_events(tmp_path / "ros.jsonl")
+    assert machine_trace(ros_events) == machine_trace(sim_events)
+    assert [(e["name"], e["status"]) for e in ros_events if e["type"] == "goal_result"] == [
+        ("POSE_0", "SUCCEEDED"), ("POSE_1", "ABORTED"), ("POSE_2", "SUCCEEDED")]
+    # What move_base received: our goals, in order, each with its own id; its verdicts, in order.
+    assert [float(v) for _, _, x, y in goals for v in (x, y)] == pytest.approx([v for g in GOALS for v in (g.x, g.y)],
+                                                                                abs=1e-9)
+    sent = [e for e in ros_events if e["type"] == "goal_sent"]
+    assert [words[1] for words in goals] == [e["ros_id"] for e in sent]
+    assert len({words[1] for words in goals}) == 3
+    assert [int(words[2]) for words in results] == [3, 4, 3]  # actionlib's SUCCEEDED, ABORTED, SUCCEEDED
+    fields = summary_fields(out)
+    assert fields["goals"] == sim_fields["goals"] == "2 reached, 1 aborted, 0 preempted"
+    assert fields["laps"] == "1" and fields["outcome"] == "shutdown"
+    assert fields["time"].endswith("on the live robot")
+    assert fields["localization"].startswith("from /amcl_pose (")
+    assert (tmp_path / "ros.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"  # the path amcl reported, drawn
+    # Each result carries the pose amcl (the stand-in) last published: the start or a goal reached by then.
+    station, first, last = ((round(p.x, 4), round(p.y, 4)) for p in (STATION, GOALS[0], GOALS[2]))
+    arrived = [(e["robot"]["x"], e["robot"]["y"]) for e in ros_events if e["type"] == "goal_result"]
+    order = [station, first, last]
+    assert arrived[0] in order[:2] and arrived[1] in order[:2] and arrived[2] in order, arrived
+    steps = [order.index(place) for place in arrived]
+    assert steps == sorted(steps), arrived  # the robot never went back where it had been
+    # The patrol left the ROS system: no node of ours is registered at the master any more.
+    assert not [n for n in ros1_master.nodes() if "objrec" in n]
+
+
+def test_a_time_limit_cancels_the_running_goal_on_the_robot(ros1_master, ros1_robot_plugin, tmp_path):
+    """Preemption (Ctrl-C or --time-limit, the same path) cancels move_base's goal over /move_base/cancel and
+    ends in SHUTDOWN with the summary written."""
+    poses = write_poses(tmp_path / "poses.txt", GOALS, None)
+    node = start_stand_in(ros1_master, tmp_path, "--delay", "600", "--start", f"{GOALS[0].x},{GOALS[0].y},0")
+    try:
+        code, out, err = run_patrol_command(
+            [poses, "--map", MAP, "--time-limit", "1", "--events", str(tmp_path / "ros.jsonl"),
+             "--robot", f"ros1,master={ros1_master.uri},timeout={RUN_GUARD:g}"])
+        assert code == 0, err + node.diagnostics()
+        seen = stand_in_lines(node, "cancel", 1)
+        [goal], [cancel] = seen["goal"], seen["cancel"]
+    finally:
+        node.stop()
+    assert cancel[1] == goal[1]
+    trace = machine_trace(read_events(tmp_path / "ros.jsonl"))
+    assert ("preempt_requested", "time limit") in trace
+    assert ("goal_result", "POSE_0", "PREEMPTED") in trace
+    assert trace[-2:] == [("state_enter", "SHUTDOWN"), ("outcome", "shutdown")]
+    fields = summary_fields(out)
+    assert fields["outcome"] == "shutdown (time limit)"
+    assert fields["goals"] == "0 reached, 0 aborted, 1 preempted"
+    assert fields["robot battery"] == "unknown"  # no battery= topic: never heard of, never low
+
+
+@pytest.mark.parametrize("source", ["battery", "kobuki"])
+def test_a_low_robot_battery_without_docking_shuts_down_as_in_the_simulator(ros1_master, ros1_robot_plugin,
+                                                                          tmp_path, source):
+    """The robot's battery below the threshold (a sensor_msgs/BatteryState topic, or the Kobuki's SensorState
+    with the voltage in 0.1 V): robot_battery_low, no docking (dock=none), SHUTDOWN; the simulator started at
+    the same low level and without a station gives the same machine events."""
+    poses = write_poses(tmp_path / "poses.txt", GOALS, None)
+    start = ["--start", str(STATION.x), str(STATION.y), "0"]
+    code, _out, err = run_patrol_command([poses, "--map", MAP, *start, "--robot-battery", "20", "--events",
+                                          str(tmp_path / "sim.jsonl")])
+    assert code == 0, err
+    extra: list[str] = []
+    topic = "battery=/battery"
+    if source == "kobuki":
+        definitions = tmp_path / "kobuki"
+        definitions.mkdir()
+        (definitions / "SensorState.msgdef").write_text(
+            patrol_typestore().generate_msgdef(SENSOR_STATE, ros_version=1)[0], encoding="utf-8")
+        extra, topic = ["--kobuki", str(definitions)], "kobuki=/mobile_base/sensors/core"
+    # The stand-in holds each goal long enough for the battery topic to be heard first (a hang guard, not a
+    # timing assertion: the battery is published five times a second).
+    node = start_stand_in(ros1_master, tmp_path, "--delay", "60", "--battery", "20", *extra,
+                          "--start", f"{STATION.x},{STATION.y},0")
+    try:
+        code, out, err = run_patrol_command(
+            [poses, "--map", MAP, *start, "--events", str(tmp_path / "ros.jsonl"), "--time-limit", f"{RUN_GUARD:g}",
+             "--robot", f"ros1,master={ros1_master.uri},{topic},dock=none,timeout={RUN_GUARD:g}"])
+        assert code == 0, err + node.diagnostics()
+    finally:
+        node.stop()
+    ros_events = read_events(tmp_path / "ros.jsonl")
+    assert machine_trace(ros_events) == machine_trace(read_events(tmp_path / "sim.jsonl"))
+    # Low from the first reading: the event fires once, whether the monitor was already listening or finds the
+    # battery low when it starts (then the event came before the events file was opened, during start-up).
+    assert [e["event"] for e in ros_events if e["type"] == "robot_battery"] in ([], ["BATTERY_LOW"])
+    if source == "battery":
+        assert summary_fields(out)["robot battery"] == "20.0 %"
+    else:  # 20 % on the Kobuki's line is 13.72 V, sent as 137 (0.1 V), read back as the driver's 19.39 %
+        assert summary_fields(out)["robot battery"] == f"{kobuki_percent(13.7):.1f} %" == "19.4 %"
+
+
+def test_the_ros1_robot_keeps_the_protocol():
+    assert Ros1Robot.wall_clock is True
+    assert {"master", "pose", "battery", "kobuki", "dock", "move_base", "laptop", "frame", "timeout"} == set(
+        Ros1Robot.options)
+    members = {name for name in dir(PatrolRobot) if not name.startswith("_")}
+    assert members <= set(dir(Ros1Robot)) | {"clock", "events", "move_base", "robot_battery", "laptop_battery"}
+
+
+def test_low_battery_docks_charges_undocks_and_resumes_as_in_the_simulator(ros1_master, ros1_robot_plugin,
+                                                                           tmp_path):
+    """The whole docking path on the robot: the battery topic drops while goal k runs, the patrol drives to the
+    station, docks through /dock_drive_action (kobuki_msgs/AutoDocking, served by rospy with classes genpy
+    generates from our definitions), waits until the battery is full, undocks and resumes at goal k. The
+    simulator, whose battery runs low during the same goal, gives the same machine events; the robot's undock is
+    a move_base goal (UNDOCK), which the simulator's undock action is not, so those two events are left out."""
+    goals = list(SHIPPED[:4])
+    poses = write_poses(tmp_path / "poses.txt", goals, STATION)
+    common = [poses, "--map", MAP, "--laps", "1", "--resume-after-charging"]
+    code, _out, err = run_patrol_command([*common, "--robot-battery", "28.2", "--events", str(tmp_path / "sim.jsonl")])
+    assert code == 0, err
+    sim_trace = machine_trace(read_events(tmp_path / "sim.jsonl"))
+    [interrupted] = [t[1] for t in sim_trace if t[0] == "goal_result" and t[2] == "PREEMPTED"]
+    k = int(str(interrupted).rsplit("_", 1)[1])
+    definitions = tmp_path / "kobuki"
+    definitions.mkdir()
+    store = patrol_typestore()
+    for name in ("AutoDockingActionGoal", "AutoDockingActionResult"):
+        text = store.generate_msgdef(f"kobuki_msgs/msg/{name}", ros_version=1)[0]
+        (definitions / f"{name}.msgdef").write_text(text, encoding="utf-8")
+    node = start_stand_in(ros1_master, tmp_path, "--delay", "1.5", "--battery", "100", "--low-at-goal", str(k + 1),
+                          "--dock", str(definitions), "--start", f"{STATION.x},{STATION.y},0")
+    try:
+        code, out, err = run_patrol_command(
+            [*common, "--events", str(tmp_path / "ros.jsonl"), "--time-limit", f"{RUN_GUARD:g}",  # a hang guard
+             "--robot", f"ros1,master={ros1_master.uri},battery=/battery,timeout={RUN_GUARD:g}"])
+        assert code == 0, err + node.diagnostics()
+    finally:
+        node.stop()
+    ros_events = read_events(tmp_path / "ros.jsonl")
+    undock_goal = (("goal_sent", "UNDOCK"), ("goal_result", "UNDOCK"))
+    ros_trace = [t for t in machine_trace(ros_events) if t[:2] not in undock_goal]
+    assert ros_trace == sim_trace
+    assert ("action_result", "DockAction", "SUCCEEDED") in ros_trace
+    assert ("state_enter", "UNDOCK") in ros_trace
+    undock = [e for e in ros_events if e["type"] == "goal_sent" and e["name"] == "UNDOCK"]
+    assert [(e["x"], e["y"]) for e in undock] == [(round(STATION.x, 4), round(STATION.y, 4))]
+    fields = summary_fields(out)
+    assert fields["goals"].startswith(f"{len(goals)} reached, 0 aborted, 1 preempted")
+    assert fields["robot battery"] == "100.0 %"
+
+
+def test_genpy_computes_our_auto_docking_md5sums(ros1_master, tmp_path):
+    """Debian has no kobuki_msgs; genpy, given our definitions, computes the same md5sums as we and kobuki do."""
+    definitions = tmp_path / "kobuki"
+    definitions.mkdir()
+    store = patrol_typestore()
+    for name in ("AutoDockingActionGoal", "AutoDockingActionResult"):
+        (definitions / f"{name}.msgdef").write_text(
+            store.generate_msgdef(f"kobuki_msgs/msg/{name}", ros_version=1)[0], encoding="utf-8")
+    node = RospyNode.start(STAND_IN, ros1_master, tmp_path, args=["--dock", str(definitions)], name="dock_stand_in")
+    try:
+        line = node.wait_for("genpy-md5 ", timeout=RUN_GUARD)  # printed before "ready"
+    finally:
+        node.stop()
+    assert line is not None, node.diagnostics()
+    assert line.split()[1:] == [KOBUKI_MD5["kobuki_msgs/msg/AutoDockingActionGoal"],
+                                KOBUKI_MD5["kobuki_msgs/msg/AutoDockingActionResult"]]
+
+
+@pytest.mark.parametrize(("robot", "needle"), [
+    ("ros1,master=http://127.0.0.1:9,timeout=5", "127.0.0.1:9"),
+    ("ros1,timeout=soon", "timeout='soon' is invalid: expected seconds in 0..3600"),
+    ("ros1,speed=3", "robot ros1 has no option speed (options: battery, dock, frame, kobuki, laptop, master, "
+                     "move_base, pose, timeout)"),
+    ("ros1,battery=/battery,kobuki=/mobile_base/sensors/core", "battery= and kobuki= both name the robot's battery"),
+])
+def test_a_robot_that_cannot_be_used_is_one_error_line(ros1_robot_plugin, tmp_path, robot, needle):
+    """No master listening on the port, a bad option: one line naming it, exit code 2, nothing on stdout."""
+    poses = write_poses(tmp_path / "poses.txt", GOALS, None)
+    code, out, err = run_patrol_command([poses, "--map", MAP, "--laps", "1", "--robot", robot])
+    assert code == 2 and out == ""
+    assert err.count("\n") == 1 and err.startswith("objrec-patrol: error: ") and needle in err, err
+
+
+def test_ctrl_c_while_waiting_for_move_base_shuts_down_without_a_goal(ros1_master, ros1_robot_plugin, tmp_path,
+                                                                      monkeypatch):
+    """A real SIGINT during start-up (no move_base on the master, so the robot is still waiting for it): the
+    wait ends, the patrol starts preempted and shuts down without sending a goal, summary and events written."""
+    signal_during(monkeypatch, ros1_robot, "LiveMoveBase", signal.SIGINT)  # built just before the wait
+    poses = write_poses(tmp_path / "poses.txt", GOALS, None)
+    code, out, err = run_patrol_command(
+        [poses, "--map", MAP, "--events", str(tmp_path / "ros.jsonl"),
+         "--robot", f"ros1,master={ros1_master.uri},timeout={RUN_GUARD:g}"])
+    assert code == 0, err
+    assert summary_fields(out)["outcome"] == "shutdown (SIGINT)"
+    trace = machine_trace(read_events(tmp_path / "ros.jsonl"))
+    assert not [t for t in trace if t[0] == "goal_sent"]
+    assert trace[0] == ("preempt_requested", "SIGINT") and trace[-1] == ("outcome", "shutdown")
+
+
+# -- the batteries --------------------------------------------------------------------------------------------
+def test_the_laptop_battery_is_read_from_power_supply_files(tmp_path):
+    supply = tmp_path / "power_supply"
+    (supply / "AC").mkdir(parents=True)
+    (supply / "AC" / "type").write_text("Mains\n")
+    assert HostBattery(20.0, supply).is_low is False  # no battery at all: never low
+    assert summary_percent(HostBattery(20.0, supply).percentage) == "unknown"
+    battery_dir = supply / "BAT0"
+    battery_dir.mkdir()
+    (battery_dir / "type").write_text("Battery\n")
+    (battery_dir / "capacity").write_text("15\n")
+    (battery_dir / "status").write_text("Discharging\n")
+    laptop = HostBattery(20.0, supply)
+    assert (laptop.percentage, laptop.is_low) == (15.0, True)
+    (battery_dir / "status").write_text("Charging\n")
+    assert HostBattery(20.0, supply).is_low is False  # low but charging, as the simulator's laptop
+
+
+def test_a_battery_state_in_fractions_or_percent_and_its_events():
+    events = EventLog(lambda: 0.0)
+    battery = TopicBattery(28.0, events)
+    assert battery.is_low is False and battery.is_full is False  # nothing heard yet
+    starts_low = TopicBattery(28.0, events)
+    starts_low.update(SimpleNamespace(percentage=0.2, voltage=14.5, power_supply_status=2))
+    assert starts_low.is_low  # from unknown to low is a crossing: the event fires, once
+    assert [e["event"] for e in events.of_type("robot_battery")] == ["BATTERY_LOW"]
+    events.events.clear()
+    message = SimpleNamespace(percentage=0.5, voltage=15.5, power_supply_status=2)
+    battery.update(message)
+    assert (battery.percentage, battery.is_low) == (50.0, False)
+    for pct in (27.0, 26.0, 29.0, 31.0, 27.5):  # crosses down, stays, re-arms only 2 % above the threshold
+        battery.update(SimpleNamespace(percentage=pct, voltage=14.0, power_supply_status=2))
+    assert [e["event"] for e in events.of_type("robot_battery")] == ["BATTERY_LOW", "BATTERY_LOW"]
+    battery.update(SimpleNamespace(percentage=1.0, voltage=16.5, power_supply_status=4))
+    assert battery.is_full and battery.percentage == 100.0
+    battery.update(SimpleNamespace(percentage=float("nan"), voltage=0.0, power_supply_status=0))
+    assert battery.percentage == 100.0  # a driver that does not know keeps the last level
