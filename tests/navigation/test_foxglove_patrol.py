@@ -58,9 +58,13 @@ def test_patrol_view_serves_map_goals_pose_scan_and_state(make_patrol, b5203_map
             view.sample()  # the pose at the end: the newest message is never the one a full queue drops
             end = sim.robot.pose
 
-            def at_the_end(c: FoxgloveClient) -> bool:
+            def at_the_end(c: FoxgloveClient) -> bool:  # the final sample arrived (the robot may turn in place)
                 poses = c.messages("/robot/pose")
-                return bool(poses) and poses[-1].message["pose"]["position"]["x"] == pytest.approx(end.x)
+                if not poses:
+                    return False
+                last = poses[-1].message["pose"]
+                return (last["position"]["x"] == pytest.approx(end.x) and last["position"]["y"] == pytest.approx(end.y)
+                        and yaw_of(last["orientation"]) == pytest.approx(end.yaw, abs=1e-9))
 
             assert client.wait_for(lambda c: c.messages("/map") and c.messages("/patrol/goals")
                                    and c.messages("/patrol/state") and at_the_end(c), HANG_GUARD), client.error
