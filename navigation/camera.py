@@ -5,7 +5,8 @@ world's objects and obstacles (:mod:`navigation.world`), as a BGR colour image, 
 intrinsics and the organized point cloud in the optical frame (x right, y down, z forward). Depth has the
 faults that matter to recognition on the real sensor: axial noise growing with the square of the distance,
 no return nearer than ``min_range`` or beyond ``max_range``, and returns missing more and more often as the
-surface is seen at a grazing angle.
+surface is seen at a grazing angle. Each frame keeps which solid every pixel shows, so it knows its own
+ground truth: the objects in view, in the optical frame, with their visible points (:meth:`RGBDFrame.truth`).
 
 The camera is level (no pitch or roll), which makes every image column a vertical plane in the world. So
 nothing is traced per pixel in Python: walls are found by one exact 2D march per column through the
@@ -22,6 +23,7 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
+from .camera_truth import SeenObject, seen_objects
 from .costmap import ObstacleField
 from .geometry import Pose2D
 from .maps import OccupancyMap
@@ -149,6 +151,11 @@ class RGBDFrame:
     camera_pose: CameraPose
     robot_pose: Pose2D
     t: float = 0.0
+    #: Which solid each pixel shows (H x W int16: an index into ``solids``, -1 for walls, floor and background).
+    object_ids: np.ndarray | None = None
+    #: What was drawn, where it stood at ``t``: the world's objects first (``object_count`` of them), then obstacles.
+    solids: tuple[WorldObject, ...] = ()
+    object_count: int = 0
 
     @property
     def K(self) -> np.ndarray:  # noqa: N802 - the usual name of the intrinsic matrix
@@ -196,6 +203,11 @@ class RGBDFrame:
         """The organized cloud in the map frame (H x W x 3, NaN where no return)."""
         return self.camera_to_map(self.points)
 
+    def truth(self, obstacles: bool = False) -> list[SeenObject]:
+        """The world's objects this frame shows, in the optical frame, with their visible point counts: the
+        frame's ground truth (:mod:`navigation.camera_truth`); with ``obstacles``, the obstacles too."""
+        return seen_objects(self, obstacles)
+
 
 class _Layer:
     """Depth, viewing cosine and colour being composited (the nearest surface wins).
@@ -208,6 +220,7 @@ class _Layer:
         self.depth = depth
         self.cos_view = cos_view
         self.color32 = color32
+        self.ids = np.full(depth.shape, -1, np.int16)  # the solid each pixel shows (the frame's truth)
 
     def bgr(self) -> np.ndarray:
         h, w = self.color32.shape
@@ -297,8 +310,9 @@ class RGBDCamera:
         world = world or World()
         wall_s, wall_nx, wall_ny = self._march_walls(occ_map, cam, dx, dy)
         layer = self._base_layer(cam, dx, dy, wall_s, wall_nx, wall_ny, world)
-        for solid in world.solids_at(t):
-            self._draw_solid(layer, solid, cam, dx, dy)
+        solids = tuple(world.solids_at(t))
+        for index, solid in enumerate(solids):
+            self._draw_solid(layer, solid, cam, dx, dy, index)
 
         depth = layer.depth
         valid = (depth >= p.min_range) & (depth <= p.max_range)
@@ -320,7 +334,8 @@ class RGBDCamera:
         np.multiply(depth, self._xn32[None, :], out=points[:, :, 0])
         np.multiply(depth, self._yn32[:, None], out=points[:, :, 1])
         points[:, :, 2] = depth
-        return RGBDFrame(color, depth, self.fx, self.fy, self.cx, self.cy, points, cam, robot_pose, t)
+        return RGBDFrame(color, depth, self.fx, self.fy, self.cx, self.cy, points, cam, robot_pose, t, layer.ids,
+                         solids, len(world.objects))
 
     def _wall_grid(self, occ_map: OccupancyMap | ObstacleField) -> tuple[OccupancyMap, np.ndarray]:
         """The map and its solid cells padded with a solid ring, so the edge of the map is a wall (as in
@@ -442,7 +457,8 @@ class RGBDCamera:
             return None
         return v0, v1, u0, u1
 
-    def _draw_solid(self, layer: _Layer, solid: WorldObject, cam: CameraPose, dx: np.ndarray, dy: np.ndarray) -> None:
+    def _draw_solid(self, layer: _Layer, solid: WorldObject, cam: CameraPose, dx: np.ndarray, dy: np.ndarray,
+                    index: int = -1) -> None:
         rect = self._rect(solid, cam)
         if rect is None:
             return
@@ -455,20 +471,21 @@ class RGBDCamera:
         elif solid.shape == "sphere":
             s, dot, shade = _sphere(*args)
         else:
-            self._draw_poster(layer, solid, cam, rect, dx[u0:u1], dy[u0:u1])
+            self._draw_poster(layer, solid, cam, rect, dx[u0:u1], dy[u0:u1], index)
             return
         zbuf = layer.depth[v0:v1, u0:u1]
         mask = s < zbuf
         if not mask.any():
             return
         zbuf[mask] = s[mask]
+        layer.ids[v0:v1, u0:u1][mask] = index
         layer.cos_view[v0:v1, u0:u1][mask] = (dot * self._inv_norm[v0:v1, u0:u1])[mask]
         a = self.params.ambient
         shaded = (a + (1.0 - a) * shade[mask])[:, None] * np.array(solid.color, np.float32)
         layer.color32[v0:v1, u0:u1][mask] = _pack(np.clip(shaded, 0, 255).astype(np.uint8))
 
     def _draw_poster(self, layer: _Layer, solid: WorldObject, cam: CameraPose, rect: tuple[int, int, int, int],
-                     dx: np.ndarray, dy: np.ndarray) -> None:
+                     dx: np.ndarray, dy: np.ndarray, index: int = -1) -> None:
         """A vertical textured rectangle; its image is sampled from a pyramid level that matches the distance."""
         v0, v1, u0, u1 = rect
         yn = self.yn[v0:v1]
@@ -494,6 +511,7 @@ class RGBDCamera:
         if not mask.any():
             return
         zbuf[mask] = s32[mask]
+        layer.ids[v0:v1, u0:u1][mask] = index
         dot = np.abs(denom).astype(np.float32)[None, :] * self._inv_norm[v0:v1, u0:u1]
         layer.cos_view[v0:v1, u0:u1][mask] = dot[mask]
         a = self.params.ambient

@@ -77,6 +77,8 @@ class _Model:
 class FeatureDetector(ImageDetector):
     """Finds the selected target by keypoint matching and a homography; see docs/feature-detection.md."""
 
+    untuned = {"debug_view": "what the debug picture shows, not how the target is found"}  # noqa: RUF012
+
     # -- the feature configuration (changing any of these recomputes the target) -----------------------
     # Each type's own settings matter (and are shown) only while that type is chosen; types_using reads
     # TYPE_SETTINGS, the one table of which setting belongs to which type.

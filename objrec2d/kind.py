@@ -2,7 +2,8 @@
 
 from __future__ import annotations
 
-from typing import Any
+import os
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -11,6 +12,9 @@ from objrec_core import DetectedObjectArray, Frame, FrameKindError, Kind, Outlin
 from .annotate import draw_objects
 from .base import as_bgr
 from .messages import DetectedObject2DArray
+
+if TYPE_CHECKING:  # pragma: no cover
+    from objrec_core.evaluation import FrameTruth, Scorer, TruthSet
 
 
 class ImageKind(Kind):
@@ -49,3 +53,38 @@ class ImageKind(Kind):
 
     def copy_frame(self, data: Any) -> Any:
         return data.copy() if isinstance(data, np.ndarray) else super().copy_frame(data)
+
+    # -- ground truth and scoring: COCO JSON label files (objrec2d.truth), box IoU (objrec2d.evaluation) ----
+    truth_format = "COCO JSON (.json)"
+
+    def read_truth(self, path: str | os.PathLike[str]) -> TruthSet:
+        from .truth import read_coco
+
+        return read_coco(path)
+
+    def write_truth(self, path: str | os.PathLike[str], truth: TruthSet) -> None:
+        from .truth import write_coco
+
+        write_coco(path, truth)
+
+    def frame_truth(self, frame: Frame) -> FrameTruth | None:
+        """The demo's truth (its shapes and poster, ``Frame.truth``) as truth objects; None for other frames."""
+        from .truth import truth_from_demo
+
+        known = frame.truth
+        if not isinstance(known, dict) or "objects" not in known:
+            return None
+        return truth_from_demo(known, frame.index, frame.stamp_ns)
+
+    def truth_object(self, name: str, **geometry: Any) -> Any:
+        """A :class:`~objrec2d.truth.TruthObject2D`: ``polygon`` points or a ``box`` (x, y, w, h), ``group``."""
+        from .truth import TruthObject2D
+
+        return TruthObject2D(name, **geometry)
+
+    def scorer(self, **options: Any) -> Scorer:
+        """An :class:`objrec2d.evaluation.ImageScorer`; options ``iou`` (0.5), ``names`` (scored names),
+        ``worst`` (frames whose pictures are kept)."""
+        from .evaluation import ImageScorer
+
+        return ImageScorer(**options)

@@ -1,4 +1,4 @@
-"""Image sources (plug-ins of the ``objrec.sources`` group): ``demo[:seed=N,frames=N]``, ``camera:N``, an
+"""Image sources (plug-ins of the ``objrec.sources`` group): ``demo[:seed=N,frames=N,truth=PATH]``, ``camera:N``, an
 image file, a video file, or a folder of images."""
 
 from __future__ import annotations
@@ -15,7 +15,7 @@ from typing import Any
 import cv2
 import numpy as np
 
-from objrec_core import Frame, FrameSource, Int, SourceError, SourceSpec
+from objrec_core import Frame, FrameSource, Int, SourceError, SourceSpec, Str
 from objrec_core.demo_source import DemoSceneSource
 from objrec_core.folder_source import FolderFilesSource, PathSource, file_stamp
 from strictio import IMAGE_PIXELS, InputError, open_input
@@ -335,19 +335,70 @@ class CameraSource(CaptureSource):
 
 
 class DemoSource(DemoSceneSource):
-    """The synthetic demo scene, endless unless ``frames`` is given; frames carry ground truth."""
+    """The synthetic demo scene, endless unless ``frames`` is given; frames carry ground truth.
+
+    ``truth=PATH`` also saves that truth as a COCO JSON label file (objrec2d.truth, keyed by frame index) of
+    every frame produced: when the ``frames``-th is produced and when the source is closed, atomically, so a
+    run of ``objrec-detect`` or ``objrec-eval`` leaves the label file of exactly the frames it saw."""
 
     kind = "2d"
-    summary = "demo[:seed=N,frames=N], coloured shapes and a textured poster with ground truth"
+    summary = "demo[:seed=N,frames=N,truth=PATH], coloured shapes and a textured poster with ground truth"
+    options = {  # noqa: RUF012 - declarations, never mutated
+        **DemoSceneSource.options,
+        "truth": Str(None, "save the truth of every frame produced to this COCO JSON file", optional=True),
+    }
     FPS = FPS  # the scene's own rate (objrec2d.demo)
 
+    @classmethod
+    def from_spec(cls, spec: SourceSpec, options: dict[str, Any]) -> DemoSource:
+        return cls(options["seed"], options["frames"] or None, name=spec.text, truth=options["truth"])
+
     def __init__(self, seed: int = 0, frames: int | None = None, scene: DemoScene | None = None,
-                 name: str | None = None) -> None:
+                 name: str | None = None, truth: str | os.PathLike[str] | None = None) -> None:
         super().__init__(seed, frames, name)
         self.scene = scene if scene is not None else DemoScene(seed=seed)
+        self.truth_path = Path(truth).expanduser() if truth is not None and str(truth) else None
+        if self.truth_path is not None and not self.truth_path.parent.is_dir():
+            raise SourceError(f"{self.name}: truth={truth}: folder {self.truth_path.parent} does not exist")
+        self._truth: Any = None  # the TruthSet being gathered
+        self._unsaved = False
+        self._size: tuple[int, int] | None = None
 
     def render(self, index: int) -> tuple[np.ndarray, Any]:
         return self.scene.render(index)
+
+    def __iter__(self) -> Iterator[Frame]:
+        for frame in super().__iter__():
+            if self.truth_path is not None:
+                self._gather(frame)
+            yield frame
+
+    def _gather(self, frame: Frame) -> None:
+        from objrec_core.evaluation import TruthSet
+
+        from .truth import truth_from_demo
+
+        if self._truth is None:
+            self._truth = TruthSet("2d", [], "index", str(self.truth_path))
+        self._truth.add(truth_from_demo(frame.truth, frame.index))
+        self._size = (frame.data.shape[1], frame.data.shape[0])
+        self._unsaved = True
+        if self.frames is not None and frame.index == self.frames - 1:
+            self.save_truth()
+
+    def save_truth(self) -> None:
+        """Write the truth gathered so far (``truth=PATH``), if any frame was added since the last save."""
+        if self.truth_path is None or not self._unsaved:
+            return
+        from .truth import write_coco
+
+        write_coco(self.truth_path, self._truth, self._size)
+        self._unsaved = False
+        log.info("%s: truth of %d frames saved to %s", self.name, len(self._truth), self.truth_path)
+
+    def close(self) -> None:
+        self.save_truth()
+        super().close()
 
 
 def open_source(spec: str) -> FrameSource:

@@ -10,7 +10,7 @@ pictures; Qt and the 2D kind never.
 
 from .base import CloudDetector, CloudFilter
 from .cloud import PointCloud, as_cloud
-from .demo import DemoTruth, SceneOptions, TruthShape, demo_scene, random_options, render_scene
+from .demo import DemoShape, DemoTruth, SceneOptions, demo_scene, random_options, render_scene
 from .distance_filter import DistanceFilter
 from .fitting import PlaneFit, ShapeFit, fit_plane
 from .kind import CloudKind
@@ -29,6 +29,7 @@ __all__ = [
     "CloudFileError",
     "CloudFilter",
     "CloudKind",
+    "DemoShape",
     "DemoSource",
     "DemoTruth",
     "DetectedObject3D",
@@ -48,7 +49,6 @@ __all__ = [
     "SceneOptions",
     "ShapeDetector",
     "ShapeFit",
-    "TruthShape",
     "VoxelFilter",
     "as_cloud",
     "demo_scene",

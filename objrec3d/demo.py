@@ -24,7 +24,7 @@ CX, CY = 319.5, 239.5
 
 
 @dataclass(frozen=True)
-class TruthShape:
+class DemoShape:
     """One ground-truth shape in the camera frame. ``axis`` is None for a sphere."""
 
     shape: str
@@ -39,12 +39,12 @@ class DemoTruth:
     """What the demo scene holds: its shapes, the table plane (``normal . p + offset = 0``, normal toward
     the camera) and the camera intrinsics."""
 
-    shapes: list[TruthShape] = field(default_factory=list)
+    shapes: list[DemoShape] = field(default_factory=list)
     table_normal: np.ndarray = field(default_factory=lambda: np.array([0.0, -1.0, 0.0]))
     table_offset: float = 0.0
     intrinsics: tuple[float, float, float, float] = (FX, FY, CX, CY)
 
-    def of_shape(self, shape: str) -> list[TruthShape]:
+    def of_shape(self, shape: str) -> list[DemoShape]:
         return [s for s in self.shapes if s.shape == shape]
 
 
@@ -214,7 +214,7 @@ def render_scene(options: SceneOptions, rng: np.random.Generator) -> tuple[Point
             a_cam = rot @ axis
             if a_cam @ (-c_cam) < 0:  # the detector's convention: toward the sensor
                 a_cam = -a_cam
-        truth.shapes.append(TruthShape(shape, c_cam, r, a_cam, h))
+        truth.shapes.append(DemoShape(shape, c_cam, r, a_cam, h))
     return cloud, truth
 
 
@@ -338,5 +338,5 @@ def shape_scene(rng: np.random.Generator, distance: float, *, cylinders: int = 2
         a_cam = None if axis is None else rot @ axis
         if a_cam is not None and a_cam @ (-c_cam) < 0:
             a_cam = -a_cam
-        truth.shapes.append(TruthShape(shape, c_cam, r, a_cam, h))
+        truth.shapes.append(DemoShape(shape, c_cam, r, a_cam, h))
     return cloud, truth, labels

@@ -2,11 +2,13 @@
 
 from __future__ import annotations
 
+import os
 from typing import Any
 
 import numpy as np
 
 from objrec_core import DetectedObjectArray, Frame, FrameKindError, Kind, Outline
+from objrec_core.evaluation import FrameTruth, Scorer, TruthSet
 
 from .cloud import PointCloud
 from .messages import DetectedObject3DArray
@@ -70,6 +72,38 @@ class CloudKind(Kind):
 
     def copy_frame(self, data: Any) -> Any:
         return data.copy() if isinstance(data, PointCloud) else super().copy_frame(data)
+
+    # -- ground truth and scoring: objrec3d.truth (the shapes file) and objrec3d.evaluation -------------------
+    truth_format = "3D shapes YAML (.yaml)"
+
+    def read_truth(self, path: str | os.PathLike[str]) -> TruthSet:
+        from .truth import read_truth
+
+        return read_truth(path)
+
+    def write_truth(self, path: str | os.PathLike[str], truth: TruthSet) -> None:
+        from .truth import write_truth
+
+        write_truth(path, truth)
+
+    def frame_truth(self, frame: Frame) -> FrameTruth | None:
+        """The demo's ``DemoTruth`` as truth shapes named by their shape; a source that already gives a
+        ``FrameTruth`` or a list of truth shapes (or their dicts) has it taken as it is."""
+        from .truth import as_truth_shape, demo_truth_shapes
+
+        truth = frame.truth
+        if isinstance(truth, FrameTruth):
+            return truth
+        if hasattr(truth, "shapes"):
+            return FrameTruth(frame.index, frame.stamp_ns, demo_truth_shapes(truth))
+        if isinstance(truth, list | tuple):
+            return FrameTruth(frame.index, frame.stamp_ns, tuple(as_truth_shape(o) for o in truth))
+        return None
+
+    def scorer(self, **options: Any) -> Scorer:
+        from .evaluation import ShapeScorer
+
+        return ShapeScorer(**options)
 
     def frames_equal(self, a: Any, b: Any) -> bool:
         if not (isinstance(a, PointCloud) and isinstance(b, PointCloud)):

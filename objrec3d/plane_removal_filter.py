@@ -24,6 +24,8 @@ class PlaneRemovalFilter(CloudFilter):
     ``max_planes`` above one the next largest plane goes too (a floor and a table).
     """
 
+    untuned = {"random_seed": "a seed is no setting to tune: a lucky one does not carry over"}  # noqa: RUF012
+
     distance_threshold = Float(0.015, "points nearer the plane than this (metres) are removed with it",
                                min=0.001, max=0.2, step=0.001)
     max_iterations = Int(200, "RANSAC draws at most; stops earlier once the plane is certain",

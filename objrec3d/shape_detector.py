@@ -58,6 +58,8 @@ class Found:
 class ShapeDetector(CloudDetector):
     """Finds up to ``max_objects`` cylinders, spheres or planes: fit, remove the inliers, fit again."""
 
+    untuned = {"random_seed": "a seed is no setting to tune: a lucky one does not carry over"}  # noqa: RUF012
+
     shape = Choice("cylinder", SHAPE_CHOICES, "the shapes to find, several joined by '+' (one pass finds them "
                    "all; each object reports its own shape); a plane is reported as the box of its inliers")
     # Things a robot picks up are a few centimetres across: the sliders stop at half a metre, typed values

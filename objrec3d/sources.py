@@ -15,6 +15,7 @@
 from __future__ import annotations
 
 import json
+import logging
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -30,6 +31,8 @@ from strictio.image_size import check_image_pixels
 from .cloud import PointCloud
 from .pcd import CloudFileError, read_pcd
 from .ply import read_ply
+
+log = logging.getLogger(__name__)
 
 CLOUD_SUFFIXES = (".pcd", ".ply")
 #: An intrinsics JSON is a few hundred bytes.
@@ -67,15 +70,65 @@ class FileSource(FolderFilesSource):
 
 
 class DemoSource(DemoSceneSource):
-    """The synthetic scene, endless unless ``frames`` is given (the sphere rolls; new noise each frame)."""
+    """The synthetic scene, endless unless ``frames`` is given (the sphere rolls; new noise each frame).
+
+    ``truth=PATH`` writes the truth of every frame produced to a 3D label file (``objrec3d.truth``, keyed by
+    index), atomically, when the source reaches ``frames`` or is closed: the file objrec-eval and objrec-tune
+    read back for the same frames (``demo:seed=S`` gives the same scene again)."""
 
     kind = "3d"
-    summary = "demo[:seed=N,frames=N], a table with a cylinder, a sphere and clutter, with ground truth"
+    options = {  # noqa: RUF012 - declarations, never mutated
+        **DemoSceneSource.options,
+        "truth": Str("", "write the truth of every frame produced to this 3D label file (.yaml)"),
+    }
+    summary = "demo[:seed=N,frames=N,truth=PATH], a table with a cylinder, a sphere and clutter, with ground truth"
+
+    @classmethod
+    def from_spec(cls, spec: SourceSpec, options: dict[str, Any]) -> DemoSource:
+        source = cls(options["seed"], options["frames"] or None, name=spec.text)
+        if options["truth"]:
+            folder = Path(options["truth"]).expanduser().parent
+            if not folder.is_dir():
+                raise SourceError(f"{spec.text}: truth={options['truth']}: folder {folder} does not exist")
+            source.truth_path = Path(options["truth"]).expanduser()
+        return source
+
+    #: Where the truth of the frames produced is written (None: nowhere).
+    truth_path: Path | None = None
 
     def render(self, index: int) -> tuple[PointCloud, Any]:
         from .demo import demo_scene
 
         return demo_scene(self.seed, index)
+
+    def __iter__(self) -> Iterator[Frame]:
+        if self.truth_path is None:
+            yield from super().__iter__()
+            return
+        from objrec_core.evaluation import FrameTruth, TruthSet
+
+        from .truth import demo_truth_shapes
+
+        if getattr(self, "_truth", None) is None:
+            self._truth = TruthSet("3d", path=str(self.truth_path))
+        for frame in super().__iter__():
+            self._truth.add(FrameTruth(frame.index, None, demo_truth_shapes(frame.truth)))
+            self._unsaved = True
+            yield frame
+        self.save_truth()
+
+    def save_truth(self) -> None:
+        """Write the truth of the frames produced so far (nothing when there is nothing new)."""
+        if self.truth_path is not None and getattr(self, "_unsaved", False):
+            from .truth import write_truth
+
+            write_truth(self.truth_path, self._truth)
+            self._unsaved = False
+            log.info("%s: the truth of %d frames written to %s", self.name, len(self._truth), self.truth_path)
+
+    def close(self) -> None:
+        self.save_truth()
+        super().close()
 
 
 class RGBDSource(FrameSource):

@@ -26,6 +26,8 @@ COMMANDS = {
     "objrec-batch": "objrec_apps.batch",
     "objrec-inspect": "objrec_apps.inspect",
     "objrec-patrol": "navigation.cli",
+    "objrec-eval": "objrec_apps.evaluate",
+    "objrec-tune": "objrec_apps.tune",
 }
 #: The signals that end a command while it starts.
 START_SIGNALS = STOP_SIGNALS
@@ -72,3 +74,11 @@ def inspect() -> int:
 
 def patrol() -> int:
     return launch("objrec-patrol")
+
+
+def evaluate() -> int:
+    return launch("objrec-eval")
+
+
+def tune() -> int:
+    return launch("objrec-tune")

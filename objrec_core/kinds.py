@@ -9,12 +9,20 @@ and the GUI asks it for the geometry of detected objects: none of them names a k
 from __future__ import annotations
 
 import copy
+import os
 from abc import ABC, abstractmethod
 from dataclasses import dataclass
-from typing import Any, ClassVar
+from typing import TYPE_CHECKING, Any, ClassVar
 
 from .messages import DetectedObjectArray
 from .sources import Frame
+
+if TYPE_CHECKING:  # pragma: no cover
+    from .evaluation import FrameTruth, Scorer, TruthSet
+
+
+class NoGroundTruth(LookupError):
+    """A kind that reads no label files or scores no detections (a plug-in kind that did not implement it)."""
 
 
 class FrameKindError(TypeError):
@@ -87,6 +95,34 @@ class Kind(ABC):
     def frames_equal(self, a: Any, b: Any) -> bool:
         """Whether two frames hold the same data (NumPy arrays compared element-wise, NaN equal to NaN)."""
         return _equal(a, b)
+
+    # -- ground truth and scoring (objrec-eval, objrec-tune, the GUI's label mode); optional for a kind ------
+    #: The label file's form, for messages and file dialogs ("COCO JSON (.json)").
+    truth_format: ClassVar[str] = ""
+
+    def read_truth(self, path: str | os.PathLike[str]) -> TruthSet:
+        """The label file at ``path`` in this kind's format; an ``InputError`` naming file, field and value."""
+        raise NoGroundTruth(f"the {self.name} kind reads no label files")
+
+    def write_truth(self, path: str | os.PathLike[str], truth: TruthSet) -> None:
+        """Save ``truth`` in this kind's label format, atomically (complete or not at all)."""
+        raise NoGroundTruth(f"the {self.name} kind writes no label files")
+
+    def frame_truth(self, frame: Frame) -> FrameTruth | None:
+        """The truth a source put on ``frame`` (``Frame.truth``: a demo knows what it drew) as this kind's truth
+        objects, or None where the source knows none."""
+        return None
+
+    def truth_object(self, name: str, **geometry: Any) -> Any:
+        """One of this kind's truth objects from its name and the label file's geometry fields (2D: ``polygon``
+        points or a ``box`` x, y, w, h, and ``group``): how a labelling tool that names no kind package makes
+        the objects it saves."""
+        raise NoGroundTruth(f"the {self.name} kind has no truth objects to label with")
+
+    def scorer(self, **options: Any) -> Scorer:
+        """A fresh scorer of this kind's detections against its truth objects (options: the kind's own,
+        such as an IoU threshold)."""
+        raise NoGroundTruth(f"the {self.name} kind scores no detections")
 
     def __repr__(self) -> str:
         return f"<data kind {self.name!r}: {self.title}>"

@@ -71,6 +71,9 @@ class Parametrizable(Subject, metaclass=ABCMeta):
     type_name: ClassVar[str]
     _declared: ClassVar[dict[str, Parameter]] = {}
     _rules: ClassVar[tuple[Rule, ...]] = ()
+    #: Parameters no tuning search should change, name -> why (a seed, a display switch): objrec-tune keeps them
+    #: at the file's values and the conformance suite checks the names are declared.
+    untuned: ClassVar[Mapping[str, str]] = {}
     Parameters: ClassVar[type] = _snapshot_type(object, [])
 
     def __init_subclass__(cls, **kwargs: Any) -> None:

@@ -82,7 +82,15 @@ class ChangeTracker(QObject):
 
     @property
     def modified(self) -> bool:
-        return not self.stack.isClean()
+        """Whether the parameters differ from the file's: a step between the clean state and now that is not
+        a label edit (those are the label mode's to ask about: ``labels_only`` steps, label_model.py)."""
+        if self.stack.isClean():
+            return False
+        clean, index = self.stack.cleanIndex(), self.stack.index()
+        if clean < 0:
+            return True
+        low, high = sorted((clean, index))
+        return any(not getattr(self.stack.command(i), "labels_only", False) for i in range(low, high))
 
     def opened(self) -> None:
         """A file or starting system was opened: remember its values; its description is the user's own

@@ -48,6 +48,10 @@ class InteractiveImage(QWidget):
         self.paint_count = 0
         #: The keyboard modifiers held when the last selection was released (Shift: the HSV eyedropper).
         self.selection_modifiers = Qt.KeyboardModifier.NoModifier
+        #: A tool that takes the mouse instead of the area selection and paints over the image (the label
+        #: mode, label_tool.py): ``mouse(view, what, point, event) -> bool`` (True: handled) and
+        #: ``paint(painter, view)``; None for the usual selection.
+        self.tool: Any = None
         self.setMouseTracking(True)
         self.setMinimumSize(160, 120)
         self.setSizePolicy(QSizePolicy.Policy.Expanding, QSizePolicy.Policy.Expanding)
@@ -141,6 +145,8 @@ class InteractiveImage(QWidget):
     def mousePressEvent(self, event: QMouseEvent) -> None:  # noqa: N802 - Qt override
         point = self.to_image(event.position())
         self.mousePressed.emit(point)
+        if self.tool is not None and self.tool.mouse(self, "press", point, event):
+            return
         if self.selectable and event.button() == Qt.MouseButton.LeftButton and self.contains(point):
             self._drag_start = self._drag_end = point
             self.update()
@@ -148,6 +154,8 @@ class InteractiveImage(QWidget):
     def mouseMoveEvent(self, event: QMouseEvent) -> None:  # noqa: N802 - Qt override
         point = self.to_image(event.position())
         self.mouseMoved.emit(point)
+        if self.tool is not None and self.tool.mouse(self, "move", point, event):
+            return
         if self._drag_start is not None:
             self._drag_end = self._clamped(point)
             self.update()
@@ -155,6 +163,8 @@ class InteractiveImage(QWidget):
     def mouseReleaseEvent(self, event: QMouseEvent) -> None:  # noqa: N802 - Qt override
         point = self.to_image(event.position())
         self.mouseReleased.emit(point)
+        if self.tool is not None and self.tool.mouse(self, "release", point, event):
+            return
         if self._drag_start is None or event.button() != Qt.MouseButton.LeftButton:
             return
         self._drag_end = self._clamped(point)
@@ -167,6 +177,11 @@ class InteractiveImage(QWidget):
         if pending is not None:
             self.set_image(*pending)
         self.update()
+
+    def mouseDoubleClickEvent(self, event: QMouseEvent) -> None:  # noqa: N802 - Qt override
+        if self.tool is not None and self.tool.mouse(self, "double", self.to_image(event.position()), event):
+            return
+        super().mouseDoubleClickEvent(event)
 
     def leaveEvent(self, event: Any) -> None:  # noqa: N802 - Qt override
         self.mouseLeft.emit()
@@ -195,4 +210,6 @@ class InteractiveImage(QWidget):
             painter.setPen(QPen(QColor(255, 255, 255), 1, Qt.PenStyle.DashLine))
             painter.fillRect(band, QColor(80, 160, 255, 60))
             painter.drawRect(band)
+        if self.tool is not None and self._array is not None:
+            self.tool.paint(painter, self)
         painter.end()

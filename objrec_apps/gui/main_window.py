@@ -23,6 +23,7 @@ from PySide6.QtWidgets import (
     QMessageBox,
     QScrollArea,
     QStackedWidget,
+    QToolBar,
 )
 
 from objrec_core import (
@@ -36,17 +37,20 @@ from objrec_core import (
     StageResults,
     UnknownModuleError,
     get_kind,
+    open_source,
     source_kinds,
 )
 
 from .changes import ChangeTracker
 from .export_script import export_dialog
 from .eyedropper import Eyedropper
+from .label_mode import LabelMode
 from .live_topic_dialog import LiveTopicDialog
 from .message_area import MessageArea, detector_reasons, is_file_error, selection_report
 from .panel_column import PanelColumn
 from .parameter_files import ParameterFiles
 from .pipeline_menu import PipelineMenu
+from .quality_strip import QualityStrip
 from .seek_bar import SeekBar
 from .source_bar import FrameRate, SourceBar
 from .stage_views import MODES, StageViews, stage_images
@@ -81,7 +85,10 @@ show the cloud: drag to rotate, right drag to pan, wheel to zoom, double click t
 <li><b>Source</b> (top): the demo scene, a camera, a file, a folder or any source spec; pause, step,
 frames per second.</li>
 <li><b>Pipeline</b> menu: add, remove and reorder modules, including your own registered filters.</li>
-<li><b>File</b> menu: open and save parameter files.</li>
+<li><b>File</b> menu: open and save parameter files, and label files.</li>
+<li><b>Tools</b> menu: <i>Label frames</i> (mark the objects of some frames: the <b>Quality</b> strip then shows
+precision, recall and F1 of the current parameters over them, after every change) and <i>Tune</i> (search the
+parameters that score best on the labelled frames).</li>
 </ul>"""
 
 
@@ -186,6 +193,15 @@ class DefinitionGUI(QMainWindow):
         self.pipeline_menu = PipelineMenu(self.system, self)
         self.eyedropper = Eyedropper(self.system, lambda text, error: self.show_message(text, error=error), self)
         self.addToolBar(Qt.ToolBarArea.TopToolBarArea, self.eyedropper.toolbar)
+        # Issue 23: labels drawn on the frames (label_mode.py) and their figures, live (quality_strip.py).
+        self._source_spec: str | None = None
+        self.labels = LabelMode(self)
+        self.addToolBar(Qt.ToolBarArea.TopToolBarArea, self.labels.toolbar)
+        self.quality = QualityStrip(self.system, self.labels.store, self._data_kind, self._reopen_source, self)
+        self.quality_bar = QToolBar("Quality", self)
+        self.quality_bar.setObjectName("quality_toolbar")
+        self.quality_bar.addWidget(self.quality)
+        self.addToolBar(Qt.ToolBarArea.TopToolBarArea, self.quality_bar)
         self._build_menus()
         self._connect()
         self._update_title()
@@ -211,6 +227,8 @@ class DefinitionGUI(QMainWindow):
         self.save_as_action = self._action(file_menu, "Save &As…", QKeySequence("Ctrl+Shift+S"), self.files.save_as)
         file_menu.addSeparator()
         self.export_action = self._action(file_menu, "&Export as Python script…", None, self.export_script)
+        file_menu.addSeparator()
+        file_menu.addActions([self.labels.open_action, self.labels.save_action])
         file_menu.addSeparator()
         self.quit_action = self._action(file_menu, "&Quit", QKeySequence.StandardKey.Quit, self.close)
         self.open_action.setShortcut(QKeySequence("Ctrl+O"))
@@ -244,6 +262,12 @@ class DefinitionGUI(QMainWindow):
         view_menu.addAction(self.message_area.toggleViewAction())
 
         bar.addMenu(self.pipeline_menu)
+        tools_menu = bar.addMenu("&Tools")
+        tools_menu.addAction(self.labels.action)
+        self.tune_action = self._action(tools_menu, "&Tune…", None, self.open_tune_dialog)
+        self.tune_action.setToolTip("Search the parameters that score best on the labelled frames (Optuna)")
+        view_menu.addAction(self.labels.toolbar.toggleViewAction())
+        view_menu.addAction(self.quality_bar.toggleViewAction())
         help_menu = bar.addMenu("&Help")
         self.about_action = self._action(help_menu, "&About", None, self.show_about)
 
@@ -318,6 +342,7 @@ class DefinitionGUI(QMainWindow):
         self._source_kind = kind
         self.show_message(f"{why}: opening {spec}…" if why else f"Opening {spec}…")
         self.view3d.set_busy(f"opening {spec}…")  # a large cloud can take seconds: say so, not a black view
+        self._source_spec = spec
         self.worker.open_source(spec, kind)
 
     def open_topic(self) -> LiveTopicDialog:
@@ -329,6 +354,27 @@ class DefinitionGUI(QMainWindow):
         dialog.accepted.connect(lambda: self.open_source(dialog.spec))
         dialog.finished.connect(lambda _result: dialog.deleteLater())
         self.topic_dialog = dialog
+        dialog.open()
+        return dialog
+
+    def _reopen_source(self) -> FrameSource | None:
+        """A fresh opening of the source on screen (any thread; the quality strip reads labelled frames from
+        it), None when it was given as an object or cannot be opened again."""
+        spec, kind = self._source_spec, self.worker.source_kind
+        if spec is None:
+            return None
+        try:
+            return open_source(spec, kind)
+        except SourceError:
+            return None
+
+    def open_tune_dialog(self) -> Any:
+        """Tools > Tune…: the tuning dialog (tune_dialog.py) over the labelled frames; returned (and kept as
+        ``tune_dialog``)."""
+        from .tune_dialog import TuneDialog  # Optuna is an extra: imported when asked for
+
+        dialog = TuneDialog(self)
+        self.tune_dialog = dialog
         dialog.open()
         return dialog
 
@@ -545,11 +591,13 @@ class DefinitionGUI(QMainWindow):
 
     def closeEvent(self, event: QCloseEvent) -> None:  # noqa: N802 - Qt override
         # Cancel (or a failed save) keeps the window; a window never shown has no one to ask.
-        if self.isVisible() and not self.changes.may_lose_changes("quitting"):
+        if self.isVisible() and not (self.changes.may_lose_changes("quitting")
+                                     and self.labels.may_lose_labels("quitting")):
             event.ignore()
             return
         self.save_layout()
         self.worker.stop()
+        self.quality.detach()
         self.panels.detach()
         self.undo.detach()  # a closed window leaves no observer on the modules (a caller may keep the system)
         super().closeEvent(event)

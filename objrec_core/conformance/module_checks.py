@@ -38,6 +38,7 @@ from ..system import RecognitionSystem
 from .cases import Case, Deviations, declared_deviations, run_declared
 from .demo_frames import demo_frames
 from .limits import CPULimitExceeded, call_with_cpu_limit
+from .module_space_checks import check_search_space
 from .support import Recorder, as_file_data, differences, registered, same, same_values, switch_interval
 
 log = logging.getLogger(__name__)
@@ -52,6 +53,7 @@ MODULE_CHECKS: tuple[tuple[str, str], ...] = (
     ("repr", "repr"),
     ("round-trip", "parameter file round trip"),
     ("snapshots", "snapshots across threads"),
+    ("search-space", "search space"),
 )
 MODULE_CHECK_IDS = tuple(check_id for check_id, _ in MODULE_CHECKS)
 #: The thread check: reads of ``module.params`` and parameter sets it waits for (it goes on at most
@@ -225,6 +227,7 @@ class _Checker:
             "repr": lambda: self.check_repr(far()),
             "round-trip": lambda: self.check_round_trip(far()),
             "snapshots": lambda: self.check_snapshots(far()),
+            "search-space": lambda: check_search_space(self),
         }
 
     def run(self, declared: Mapping[str, str] | None = None, only: str | None = None) -> CheckReport:

@@ -293,8 +293,8 @@ def test_the_launcher_imports_each_command_and_gives_the_signals_back(monkeypatc
     assert seen == before  # the command's main runs with the handling it had before
     assert {sig: signal.getsignal(sig) for sig in launch.START_SIGNALS} == before
     assert set(launch.COMMANDS) == {"objrec-detect", "objrec-define", "objrec-batch", "objrec-inspect",
-                                    "objrec-patrol"}
-    for name in ("detect", "define", "batch", "inspect", "patrol"):
+                                    "objrec-patrol", "objrec-eval", "objrec-tune"}
+    for name in ("detect", "define", "batch", "inspect", "patrol", "evaluate", "tune"):
         assert callable(getattr(launch, name))
 
 

@@ -37,7 +37,8 @@ def test_a_whole_check_reports_what_it_did():
 
     report = check_module(MorphologyFilter)
     assert report.checks == ["declarations", "refusals", "frames at the defaults", "boundary values",
-                             "change events", "repr", "parameter file round trip", "snapshots across threads"]
+                             "change events", "repr", "parameter file round trip", "snapshots across threads",
+                             "search space"]
     assert report.refused >= 3 * len(MorphologyFilter.parameter_specs())  # every parameter has several bad values
     assert report.boundaries >= len(MorphologyFilter.parameter_specs())
     assert report.frames >= 3

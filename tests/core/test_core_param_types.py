@@ -54,7 +54,8 @@ def test_no_framework_module_knows_the_plugin_type():
 def test_plugin_type_passes_the_conformance_suite_with_its_own_values():
     report = check_module(TintFilter)
     assert report.checks == ["declarations", "refusals", "frames at the defaults", "boundary values",
-                             "change events", "repr", "parameter file round trip", "snapshots across threads"]
+                             "change events", "repr", "parameter file round trip", "snapshots across threads",
+                             "search space"]
     colour = TintFilter.parameter_spec("tint")
     strength = TintFilter.parameter_spec("strength")
     ceiling = TintFilter.parameter_spec("ceiling")

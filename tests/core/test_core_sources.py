@@ -57,7 +57,7 @@ def test_the_demo_takes_the_same_options_in_every_built_in_kind(kind):
     [
         ("demo:seed=-1", "2d", "demo:seed=-1: option seed='-1' is invalid: out of range, allowed int in 0..2147483647"),
         ("demo:frames=many", "3d", "option frames='many' is invalid: expected int"),
-        ("demo:speed=2", "2d", "unknown option 'speed' (options: seed, frames)"),
+        ("demo:speed=2", "2d", "unknown option 'speed' (options: seed, frames, truth)"),
         ("demo:1,2", "2d", "too many values without a key"),
         ("ftp:x", "2d",
          "no such file or folder (2d sources: schemes bag:, camera:, demo:, ros1:, ros2:; files .avi .bag"),

@@ -25,6 +25,7 @@ from pathlib import Path
 
 import pytest
 
+from objrec_apps import launch
 from tests.docs.markdown_blocks import Block, blocks, expected_output
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -119,14 +120,12 @@ def test_every_block_that_does_not_run_says_why() -> None:
 
 
 # -- command lines ----------------------------------------------------------------------------------------------
-COMMANDS = {"objrec-detect": "objrec_apps.detect", "objrec-define": "objrec_apps.define",
-            "objrec-batch": "objrec_apps.batch", "objrec-inspect": "objrec_apps.inspect",
-            "objrec-patrol": "navigation.cli"}
+COMMANDS = dict(launch.COMMANDS)  # every console script and the module whose build_parser checks its lines
 _SHELL_LANGS = {"bash", "sh", "shell", "console", ""}
 _CODE_SPAN = re.compile(r"`([^`\n]+)`")
 #: A command line: the command first (after a prompt, VAR=value settings, xvfb-run or a folder such as .venv/bin/).
 _COMMAND = re.compile(r"^\s*(?:\$\s+)?(?:\w+=\S*\s+)*(?:xvfb-run\s+(?:-a\s+)?)?(?:\S*/)?"
-                      r"(objrec-(?:detect|define|batch|inspect|patrol))(?=\s|$)")
+                      r"(" + "|".join(sorted(map(re.escape, COMMANDS), key=len, reverse=True)) + r")(?=\s|$)")
 _OPERATORS = {"|", "||", "&&", ";", ">", ">>", "2>", "2>&1", "&", "<"}
 _PLACEHOLDER = re.compile(r"^(\.\.\.|\[.*|.*\]|.*\.\.\..*)$")
 

@@ -146,7 +146,7 @@ def test_demo_is_deterministic_and_sources_report_bad_specs(tmp_path) -> None:
     folder = list(open_source(str(tmp_path)))
     assert [f.index for f in folder] == [0, 1] and folder[0].data.is_organized
     for spec, words in [("demo:frames=x", r"option frames='x' is invalid: expected int in 1\.\.inf, or none"),
-                        ("demo:colour=1", r"unknown option 'colour' \(options: seed, frames\)"),
+                        ("demo:colour=1", r"unknown option 'colour' \(options: seed, frames, truth\)"),
                         (str(tmp_path / "none.pcd"), "no such file"),
                         (str(tmp_path / "notes.txt"), r"notes\.txt: no 3d source reads this \(3d sources: .*\.pcd"),
                         ("rgbd:a.png", "rgbd:COLOR,DEPTH"), ("rgbd:nope.png,nope2.png", "does not exist"),

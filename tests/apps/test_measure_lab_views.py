@@ -1,0 +1,50 @@
+"""scripts/measure_lab_views.py on one object of the lab: the views placed around it, the blocked ones, the
+recall, the truth file of every frame rendered, the views file and the picture."""
+
+from __future__ import annotations
+
+import importlib.util
+import json
+import sys
+from pathlib import Path
+from types import ModuleType
+
+import cv2
+
+from objrec_core import get_kind
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+def load_script() -> ModuleType:
+    spec = importlib.util.spec_from_file_location("measure_lab_views", ROOT / "scripts" / "measure_lab_views.py")
+    assert spec is not None and spec.loader is not None
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[spec.name] = module
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_the_blue_ball_is_found_from_every_side_it_can_be_seen_from(tmp_path, capsys):
+    script = load_script()
+    truth, views, picture = tmp_path / "t.yaml", tmp_path / "v.json", tmp_path / "p.png"
+    assert script.main(["--objects", "blue_ball", "--repeats", "1", "--truth", str(truth), "--views", str(views),
+                        "--picture", str(picture)]) == 0
+    out = capsys.readouterr().out
+    [ball] = json.loads(views.read_text())
+    assert ball["params"] == ["shapes_3d.yaml"] and len(ball["views"]) == 12 * 5
+    rendered = [v for v in ball["views"] if v["outcome"] != "blocked"]
+    assert len(rendered) == 32 and all(v["tries"] == 1 and v["outcome"] != "hidden" for v in rendered)
+    found = sum(v["found"] for v in rendered)
+    assert found >= 30  # the sphere detector finds the ball from every side (32 of 32 in the full run)
+    assert f"| all | **{found / 32:.0%}** ({found}/32 frames; 0 views hidden, 28 blocked) |" in out
+    assert f"blue_ball: found in {found} of 32 frames of views in sight; recall below 50 % from 0 of 12 " in out
+    # Every frame rendered is in the truth file, the view's first frame at the index the views file gives.
+    labels = get_kind("3d").read_truth(truth)
+    assert labels.indices == list(range(32))
+    for v in rendered:
+        [shape] = [o for o in labels.lookup(v["frame"]).objects if o.name == "blue_ball"]
+        assert shape.visible_points == v["visible_points"]
+        assert abs(shape.centre[2] - v["distance"]) < 1e-9 and abs(shape.centre[0]) < 1e-9  # straight ahead
+    image = cv2.imread(str(picture))
+    assert image.shape == (420 + 62, 2 * 420, 3)
