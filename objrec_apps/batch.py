@@ -38,17 +38,27 @@ from objrec_core import (
     SourceError,
     SourceSpec,
     UnknownModuleError,
-    build_system,
     get_kind,
     source_schemes,
 )
 from strictio import InputError, OutputError, write_atomically
-from strictio.cli_numbers import CommandLineParser, Number, check_limit_settings
+from strictio.cli_numbers import CommandLineParser, Number
 from strictio.shown import printable
 from strictio.signals import handling, raise_interrupt
 
 from .batch_worker import CANCELLED, FAILED, FORMATS, STOPPED, SourceResult, one_line, output_names, run_source
-from .cli import MAX_FRAMES, MESSAGE_LIMIT, USER_ERROR, UserError, configure_logging, report
+from .cli import (
+    INTERRUPTED,
+    MAX_FRAMES,
+    MESSAGE_LIMIT,
+    USER_ERROR,
+    UserError,
+    detecting_system,
+    parse_and_run,
+    quiet_stdout,
+    report,
+    run_command,
+)
 from .outputs import check_topic, default_topic, require_rosbags
 
 log = logging.getLogger("objrec.batch")
@@ -56,7 +66,7 @@ PROG = "objrec-batch"
 
 EXIT_OK = 0
 EXIT_FAILED = 1
-EXIT_INTERRUPTED = 130
+EXIT_INTERRUPTED = INTERRUPTED
 SUMMARY = "summary.csv"
 SUMMARY_FIELDS = ("source", "output", "frames", "frames_with_objects", "objects", "frames_per_s", "seconds", "status")
 #: Worker processes each get one core: libraries' own thread pools would otherwise oversubscribe the machine
@@ -179,11 +189,7 @@ def make_plan(params: str, specs: Sequence[str], out: str, fmt: str = "jsonl", m
     if max_frames is not None and max_frames < 1:
         raise UserError(f"--max-frames must be at least 1, got {max_frames}")
     try:
-        system = build_system(params)
-        if not system.detectors:
-            raise UserError(f"{params}: pipeline: has no detector, so nothing would be detected")
-        if not system.kind:
-            raise UserError(f"{params}: kind: no module declares its data kind")
+        system = detecting_system(params)
         get_kind(system.kind)
         not_ready = DetectionDirector(system).not_ready()  # e.g. a feature file saved before any selection
         if not_ready:
@@ -473,24 +479,14 @@ def run(args: argparse.Namespace, stdout: IO[str]) -> int:
         stdout.write(format_table(outcome.results))
         stdout.flush()
     except BrokenPipeError:  # the reader went away (`| head`): the summary file has it all
-        devnull = os.open(os.devnull, os.O_WRONLY)
-        os.dup2(devnull, stdout.fileno())  # so the interpreter's final flush stays quiet
+        quiet_stdout(stdout)
     sys.stderr.write(totals_line(outcome) + (" (interrupted)" if outcome.interrupted else "") + "\n")
     return code
 
 
 def main(argv: list[str] | None = None) -> int:
-    try:
-        args = build_parser().parse_args(argv)
-        configure_logging(PROG, args.verbose)
-        check_limit_settings()
-        return run(args, sys.stdout)
-    except (UserError, InputError, OutputError) as exc:
-        report(PROG, exc)
-        return USER_ERROR
-    except KeyboardInterrupt:  # before any work started
-        sys.stderr.write(f"{PROG}: interrupted while starting\n")
-        return EXIT_INTERRUPTED
+    return run_command(PROG, lambda: parse_and_run(PROG, build_parser(), argv, run),
+                       mistakes=(UserError, InputError, OutputError), interrupted="interrupted while starting")
 
 
 if __name__ == "__main__":

@@ -1,18 +1,25 @@
-"""What the objrec commands share: how a user mistake is reported, and where diagnostics go."""
+"""What the objrec commands share: how a user mistake is reported, where diagnostics go, and the wrapper of every
+command's ``main`` (exit codes for a mistake, Ctrl-C and a reader of stdout that went away)."""
 
 from __future__ import annotations
 
+import argparse
 import logging
+import os
 import sys
+from collections.abc import Callable
 from typing import IO
 
+from objrec_core import ParameterFileError, RecognitionSystem, UnknownModuleError, build_system
 from strictio import OutputError
 from strictio.atomic import LineOutput
-from strictio.cli_numbers import Number
+from strictio.cli_numbers import Number, check_limit_settings
 from strictio.shown import escape_controls, printable
 
 #: Exit code for a mistake in what the user asked for (a bad file, source or option).
 USER_ERROR = 2
+#: Exit code after Ctrl-C (or SIGTERM) where a command stops without finishing, e.g. while starting.
+INTERRUPTED = 130
 #: The longest error line a command writes.
 MESSAGE_LIMIT = 2000
 #: How many frames --max-frames (objrec-detect, objrec-batch) may ask for.
@@ -55,3 +62,52 @@ def open_text_output(path: str) -> IO[str]:
         return LineOutput.create(path, make_folders=True)  # type: ignore[return-value]
     except OutputError as exc:
         raise UserError(str(exc)) from None
+
+
+def quiet_stdout(stdout: IO[str] | None = None) -> None:
+    """After the reader of stdout went away (``| head``): point it at /dev/null, so that the interpreter's final
+    flush stays quiet instead of printing a BrokenPipeError; what was written to files is complete."""
+    devnull = os.open(os.devnull, os.O_WRONLY)
+    os.dup2(devnull, (sys.stdout if stdout is None else stdout).fileno())
+
+
+def parse_and_run(prog: str, parser: argparse.ArgumentParser, argv: list[str] | None,
+                  run: Callable[[argparse.Namespace, IO[str]], int]) -> int:
+    """A command's usual start: its arguments parsed, logging set up (``--verbose``), the OBJREC_MAX_* limit
+    variables checked, then ``run(args, sys.stdout)``."""
+    args = parser.parse_args(argv)
+    configure_logging(prog, args.verbose)
+    check_limit_settings()
+    return run(args, sys.stdout)
+
+
+def run_command(prog: str, start: Callable[[], int], *,
+                mistakes: tuple[type[Exception], ...] = (UserError,), interrupted: str = "interrupted") -> int:
+    """Every command's ``main``: ``start()``'s exit code; one of ``mistakes`` is one error line and exit code 2;
+    Ctrl-C not handled further in is ``{prog}: {interrupted}`` and 130; a reader of stdout that went away is
+    not an error (exit 0, stdout quieted)."""
+    try:
+        return start()
+    except mistakes as exc:
+        report(prog, exc)
+        return USER_ERROR
+    except KeyboardInterrupt:
+        sys.stderr.write(f"{prog}: {interrupted}\n")
+        return INTERRUPTED
+    except BrokenPipeError:
+        quiet_stdout()
+        return 0
+
+
+def detecting_system(params: str) -> RecognitionSystem:
+    """The system of a parameter file a command is to run: one that has a detector (else nothing would be
+    detected) and a data kind; a file that cannot be built is a UserError naming it."""
+    try:
+        system = build_system(params)
+    except (ParameterFileError, UnknownModuleError) as exc:
+        raise UserError(str(exc)) from None
+    if not system.detectors:
+        raise UserError(f"{params}: pipeline: has no detector, so nothing would be detected")
+    if not system.kind:
+        raise UserError(f"{params}: kind: no module declares its data kind")
+    return system

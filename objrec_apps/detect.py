@@ -13,7 +13,6 @@ from __future__ import annotations
 
 import argparse
 import logging
-import os
 import signal
 import sys
 from collections.abc import Callable, Iterable, Iterator, Sequence
@@ -26,11 +25,9 @@ from objrec_core import (
     DetectionDirector,
     FrameSource,
     Kind,
-    ParameterFileError,
     PipelineError,
     SourceError,
     UnknownModuleError,
-    build_system,
     get_kind,
     open_source,
 )
@@ -41,7 +38,16 @@ from strictio.signals import StopSignals
 
 from . import explain, live_outputs, outputs
 from .annotation_writer import AnnotationError
-from .cli import MAX_FRAMES, MESSAGE_LIMIT, USER_ERROR, UserError, configure_logging, report
+from .cli import (
+    MAX_FRAMES,
+    MESSAGE_LIMIT,
+    USER_ERROR,
+    UserError,
+    configure_logging,
+    detecting_system,
+    report,
+    run_command,
+)
 from .detection_outputs import OUTPUT_OPTION, DetectionLines, TypedDetections
 from .foxglove_view import FoxgloveView, add_foxglove_argument
 from .output_contract import Ending, Output, RunEnd, close_outputs
@@ -49,8 +55,6 @@ from .side_outputs import Pictures, Reasons, RerunRecording
 
 log = logging.getLogger("objrec.detect")
 PROG = "objrec-detect"
-#: Exit code after Ctrl-C before the run loop took over.
-INTERRUPTED = 130
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -137,20 +141,13 @@ class BarProgress:
 
 
 def _open(args: argparse.Namespace) -> tuple[DetectionDirector, FrameSource, Kind]:
-    try:
-        system = build_system(args.params)
-    except ParameterFileError as exc:
-        raise UserError(str(exc)) from None
-    if not system.detectors:
-        raise UserError(f"{args.params}: pipeline: has no detector, so nothing would be detected")
+    system = detecting_system(args.params)
     director = DetectionDirector(system, frame_id=args.frame_id)
     not_ready = director.not_ready()
     if not_ready:
         raise UserError(f"{args.params}: " + "; ".join(not_ready))
     try:
-        kind = get_kind(system.kind) if system.kind else None
-        if kind is None:
-            raise UserError(f"{args.params}: kind: no module declares its data kind")
+        kind = get_kind(system.kind)
         source = open_source(args.source, kind.name)
     except (SourceError, UnknownModuleError) as exc:
         raise UserError(str(exc)) from None
@@ -334,11 +331,10 @@ def _failed(exc: Exception, frames: int, opened: Sequence[Output], args: argpars
 
 
 def main(argv: list[str] | None = None) -> int:
-    try:
-        return _main(argv)
-    except KeyboardInterrupt:  # before the run loop took Ctrl-C over (building the system, opening the source)
-        sys.stderr.write(f"{PROG}: interrupted while starting\n")
-        return INTERRUPTED
+    # Ctrl-C here is before the run loop took it over (building the system, opening the source); a broken pipe
+    # (`| head`) is not an error.
+    return run_command(PROG, lambda: _main(argv), mistakes=(UserError, InputError, OutputError),
+                       interrupted="interrupted while starting")
 
 
 def _main(argv: list[str] | None) -> int:
@@ -350,19 +346,8 @@ def _main(argv: list[str] | None) -> int:
     try:
         check_limit_settings()
         return run(args, sys.stdout)
-    except UserError as exc:
-        report(PROG, exc)
-        return USER_ERROR
     except PipelineError as exc:
-        report(PROG, f"{args.params}: {exc}")
-        return USER_ERROR
-    except (InputError, OutputError) as exc:  # before the run loop: a reader's, a limit's or a writer's
-        report(PROG, exc)
-        return USER_ERROR
-    except BrokenPipeError:  # the reader went away (e.g. `| head`): not an error
-        devnull = os.open(os.devnull, os.O_WRONLY)
-        os.dup2(devnull, sys.stdout.fileno())  # so the interpreter's final flush stays quiet
-        return 0
+        raise UserError(f"{args.params}: {exc}") from None
 
 
 if __name__ == "__main__":

@@ -33,7 +33,8 @@ from .batch import EXIT_FAILED, EXIT_INTERRUPTED, BatchOutcome, make_plan, run_b
 from .batch_worker import FAILED, STOPPED, output_stem
 from .cli import UserError
 from .eval_inputs import empty_evaluation, own_truth_set, read_truth, scorer_options
-from .eval_report import BELOW_BAR, bars_asked, check_bars, format_table, missed_bars, write_report
+from .eval_report import bars_asked, check_bars, format_table, missed_bars, write_report
+from .evaluate import bars_exit
 
 log = logging.getLogger("objrec.eval")
 PROG = "objrec-eval"
@@ -116,11 +117,8 @@ def run_batch_evaluation(args: argparse.Namespace, params: str, specs: Sequence[
                      f"scored, score {combined.score:.3f}; report in {out}\n")
     if outcome.interrupted:
         return 0
-    for line in missed:
-        sys.stderr.write(f"{PROG}: below the bar: {line}\n")
-    if failed:
-        return EXIT_FAILED
-    return BELOW_BAR if missed else 0
+    code = bars_exit(missed)
+    return EXIT_FAILED if failed else code
 
 
 def _score_each(kind: Kind, specs: Sequence[str], outputs: Sequence[str], folder: Path,

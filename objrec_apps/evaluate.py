@@ -22,7 +22,6 @@ from __future__ import annotations
 
 import argparse
 import logging
-import os
 import signal
 import sys
 from collections.abc import Iterable
@@ -34,21 +33,19 @@ from typing import IO, Any
 from objrec_core import (
     FrameSource,
     Kind,
-    ParameterFileError,
     PipelineError,
     SourceError,
     UnknownModuleError,
-    build_system,
     get_kind,
     kind_names,
 )
 from objrec_core.evaluation import Evaluation, Labelled, TruthSet, labelled_frames, score, score_saved
 from strictio import InputError, OutputError
-from strictio.cli_numbers import CommandLineParser, Number, check_limit_settings
+from strictio.cli_numbers import CommandLineParser, Number
 from strictio.signals import StopSignals
 
 from . import eval_saved
-from .cli import MAX_FRAMES, USER_ERROR, UserError, configure_logging, report
+from .cli import MAX_FRAMES, UserError, detecting_system, parse_and_run, run_command
 from .detect import BarProgress
 from .eval_inputs import (
     empty_evaluation,
@@ -81,8 +78,6 @@ from .eval_report import (
 
 log = logging.getLogger("objrec.eval")
 PROG = "objrec-eval"
-#: Exit code after Ctrl-C while starting, or a second Ctrl-C.
-INTERRUPTED = 130
 #: The suffixes of a parameter file.
 PARAMS_SUFFIXES = (".yaml", ".yml")
 #: A bar's value: a share (precision, recall, F1, AP, IDF1), metres (centre, radius error) or degrees (axis error).
@@ -161,14 +156,7 @@ def _length(source: FrameSource, args: argparse.Namespace, truth: TruthSet | Non
 
 def run_system(args: argparse.Namespace, params: str) -> Scored:
     """Run the parameter file's system over the labelled frames of ``--source``."""
-    try:
-        system = build_system(params)
-    except (ParameterFileError, UnknownModuleError) as exc:
-        raise UserError(str(exc)) from None
-    if not system.detectors:
-        raise UserError(f"{params}: pipeline: has no detector, so nothing would be detected")
-    if not system.kind:
-        raise UserError(f"{params}: kind: no module declares its data kind")
+    system = detecting_system(params)
     kind = get_kind(system.kind)
     truth = read_truth(kind, args.truth) if args.truth else None
     bars = bars_asked(args)
@@ -264,6 +252,12 @@ def finish(args: argparse.Namespace, scored: Scored, stdout: IO[str]) -> int:
                      f"{written[0].parent}{' (interrupted: the frames scored so far)' if scored.interrupted else ''}\n")
     if scored.interrupted:
         return 0
+    return bars_exit(missed)
+
+
+def bars_exit(missed: list[str]) -> int:
+    """The exit code of a scoring that was not interrupted: one stderr line per bar missed, then 1 (BELOW_BAR)
+    if any was, else 0. Shared by the one-source and the batch form."""
     for line in missed:
         sys.stderr.write(f"{PROG}: below the bar: {line}\n")
     return BELOW_BAR if missed else 0
@@ -310,27 +304,9 @@ def run(args: argparse.Namespace, stdout: IO[str]) -> int:
 
 
 def main(argv: list[str] | None = None) -> int:
-    try:
-        args = build_parser().parse_args(argv)
-        configure_logging(PROG, args.verbose)
-        check_limit_settings()
-        return run(args, sys.stdout)
-    except UserError as exc:
-        report(PROG, exc)
-        return USER_ERROR
-    except PipelineError as exc:
-        report(PROG, exc)
-        return USER_ERROR
-    except (InputError, OutputError, SourceError) as exc:
-        report(PROG, exc)
-        return USER_ERROR
-    except KeyboardInterrupt:
-        sys.stderr.write(f"{PROG}: interrupted\n")
-        return INTERRUPTED
-    except BrokenPipeError:  # the reader went away (`| head`): the report files have it all
-        devnull = os.open(os.devnull, os.O_WRONLY)
-        os.dup2(devnull, sys.stdout.fileno())  # so the interpreter's final flush stays quiet
-        return 0
+    # A broken pipe (`| head`) is not an error: the report files have it all.
+    return run_command(PROG, lambda: parse_and_run(PROG, build_parser(), argv, run),
+                       mistakes=(UserError, PipelineError, InputError, OutputError, SourceError))
 
 
 if __name__ == "__main__":

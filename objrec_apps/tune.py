@@ -31,7 +31,6 @@ from objrec_core import (
     PipelineError,
     SourceError,
     UnknownModuleError,
-    build_system,
     get_kind,
     open_source,
 )
@@ -48,15 +47,14 @@ from objrec_core.tuning import (
     tune,
 )
 from strictio import InputError, OutputError
-from strictio.cli_numbers import CommandLineParser, Number, check_limit_settings
+from strictio.cli_numbers import CommandLineParser, Number
 from strictio.signals import StopSignals
 
-from .cli import MAX_FRAMES, USER_ERROR, UserError, configure_logging, report
+from .cli import INTERRUPTED, MAX_FRAMES, UserError, detecting_system, parse_and_run, run_command
 from .evaluate import own_truth, plain_paths, read_truth
 
 log = logging.getLogger("objrec.tune")
 PROG = "objrec-tune"
-INTERRUPTED = 130
 TRIALS = Number(1, 1_000_000, whole=True)
 SEED = Number(0, 2**32 - 1, whole=True)
 SHARE = Number(0, 1)
@@ -176,14 +174,7 @@ def run(args: argparse.Namespace, stdout: IO[str]) -> int:
         raise UserError(f"--held-out {args.held_out}: must be below 1 (some frames must be searched)")
     refuse_inputs(args.out, [("the parameter file", args.params), ("the truth file", args.truth),
                              *(("the source", p) for p in plain_paths(args.source))])
-    try:
-        system = build_system(args.params)
-    except (ParameterFileError, UnknownModuleError) as exc:
-        raise UserError(str(exc)) from None
-    if not system.detectors:
-        raise UserError(f"{args.params}: pipeline: has no detector, so nothing would be detected")
-    if not system.kind:
-        raise UserError(f"{args.params}: kind: no module declares its data kind")
+    system = detecting_system(args.params)
     kind = get_kind(system.kind)
     try:
         kind.scorer()
@@ -242,20 +233,8 @@ def summary(result: TuningResult) -> str:
 
 
 def main(argv: list[str] | None = None) -> int:
-    try:
-        args = build_parser().parse_args(argv)
-        configure_logging(PROG, args.verbose)
-        check_limit_settings()
-        return run(args, sys.stdout)
-    except UserError as exc:
-        report(PROG, exc)
-        return USER_ERROR
-    except (PipelineError, InputError, OutputError, SourceError) as exc:
-        report(PROG, exc)
-        return USER_ERROR
-    except KeyboardInterrupt:
-        sys.stderr.write(f"{PROG}: interrupted\n")
-        return INTERRUPTED
+    return run_command(PROG, lambda: parse_and_run(PROG, build_parser(), argv, run),
+                       mistakes=(UserError, PipelineError, InputError, OutputError, SourceError))
 
 
 if __name__ == "__main__":

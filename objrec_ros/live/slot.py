@@ -11,6 +11,8 @@ import threading
 import time
 from typing import Generic, TypeVar
 
+from .transport import LiveMessage, Subscription
+
 T = TypeVar("T")
 
 
@@ -49,3 +51,24 @@ class NewestSlot(Generic[T]):
         with self._ready:
             self._closed = True
             self._ready.notify_all()
+
+
+class SlotSubscription(Subscription):
+    """A subscription whose messages land in one :class:`NewestSlot`: taking and counting are the slot's.
+
+    Every transport's subscription is one; each makes ``self._slot`` in its ``__init__`` and feeds it from its
+    own threads, and keeps only what differs (how the type is found, how it connects, how it closes).
+    """
+
+    _slot: NewestSlot[LiveMessage]
+
+    def next(self, timeout: float | None) -> LiveMessage | None:
+        return self._slot.take(timeout)
+
+    @property
+    def received(self) -> int:
+        return self._slot.received
+
+    @property
+    def dropped(self) -> int:
+        return self._slot.dropped

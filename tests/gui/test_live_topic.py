@@ -9,11 +9,12 @@ ROS 2 domain is listed over DDS on loopback (tests/ros/live/dds_env.py), skipped
 
 from __future__ import annotations
 
-import importlib.util
 import sys
 import threading
 import time
+from collections.abc import Callable, Iterator
 from pathlib import Path
+from typing import Any
 
 import cv2
 import numpy as np
@@ -34,10 +35,12 @@ from objrec_apps.gui.topic_chooser import (
     with_topic,
 )
 from tests.qt_waits import HANG_GUARD_MS
+from tests.ros.live import dds_env as dds  # one shared instance: it remembers the domain ids handed out
 from tests.ros.live import ros1_env
 from tests.ros.live.ros1_env import STARTUP_DEADLINE, RospyNode
 
 ros1_master = ros1_env.ros1_master  # the fixture, used by name
+dds_env = dds.dds_env  # the fixture, used by name
 
 TOPICS = [("/camera/rgb/image_raw", "sensor_msgs/msg/Image"), ("/odom", "nav_msgs/msg/Odometry"),
           ("/camera/rgb/image_raw/compressed", "sensor_msgs/msg/CompressedImage")]
@@ -271,22 +274,31 @@ while not rospy.is_shutdown():
 WIDTH, HEIGHT = 96, 72  # not the demo's 640x480: the frames on screen must be the topic's
 
 
-@pytest.fixture
-def image_live_source():
-    """The 2D live source, registered in code when the installed entry points do not list it yet."""
+def _live_source_registered(kind: str, scheme: str, live_source: Callable[[], type]) -> Iterator[None]:
+    """A kind's live source, registered in code (``live_source()`` imports its class) when the installed entry
+    points do not list ``scheme`` for the kind yet; unregistered afterwards."""
     from objrec_core import register_source, source_schemes
     from objrec_core.registry import unregister_source
 
-    if "ros1" in source_schemes("2d"):
+    if scheme in source_schemes(kind):
         yield
         return
-    from objrec2d.live_source import ImageLiveSource
-
-    register_source(ImageLiveSource, "2d.live")
+    register_source(live_source(), f"{kind}.live")
     try:
         yield
     finally:
-        unregister_source("2d.live")
+        unregister_source(f"{kind}.live")
+
+
+@pytest.fixture
+def image_live_source():
+    """The 2D live source, registered in code when the installed entry points do not list it yet."""
+    def image_source() -> type:
+        from objrec2d.live_source import ImageLiveSource
+
+        return ImageLiveSource
+
+    yield from _live_source_registered("2d", "ros1", image_source)
 
 
 def test_the_dialog_offers_what_the_kinds_live_source_reads(image_live_source):
@@ -294,6 +306,17 @@ def test_the_dialog_offers_what_the_kinds_live_source_reads(image_live_source):
     assert reading.msgtypes == IMAGES
     assert reading.text == "images (sensor_msgs/Image or CompressedImage)"
     assert live_reading(None, "ros1") == LiveReading(None)  # no pipeline yet: every topic offered
+
+
+def _choose_and_show(gui, dialog, qtbot, topic: str, spec: str, frames: int = 3) -> tuple[list, Any]:
+    """Choose ``topic`` in the open dialog: the source it makes is ``spec`` and ``frames`` of its frames reach the
+    screen. Returns the results shown (the list goes on growing while the topic plays) and the newest of ``spec``."""
+    shown: list = []
+    gui.frameShown.connect(lambda item: shown.append(item.results))
+    dialog.choose(topic)
+    assert dialog.spec == spec
+    qtbot.waitUntil(lambda: sum(r.frame.source == spec for r in shown) >= frames, timeout=HANG_GUARD_MS)
+    return shown, next(r for r in reversed(shown) if r.frame.source == spec)
 
 
 def test_tuning_on_a_live_ros1_topic(ros1_master, image_live_source, make_gui, qtbot, tmp_path):
@@ -318,13 +341,8 @@ def test_tuning_on_a_live_ros1_topic(ros1_master, image_live_source, make_gui, q
         assert ("/camera/rgb/image_raw", "sensor_msgs/msg/Image", True) in rows
         assert ("/rosout", "rosgraph_msgs/msg/Log", False) in rows  # rospy's log topic: greyed for images
 
-        shown = []
-        gui.frameShown.connect(lambda item: shown.append(item.results))
-        dialog.choose("/camera/rgb/image_raw")
         spec = f"ros1:/camera/rgb/image_raw,master={ros1_master.uri}"
-        assert dialog.spec == spec
-        qtbot.waitUntil(lambda: sum(r.frame.source == spec for r in shown) >= 3, timeout=HANG_GUARD_MS)
-        results = next(r for r in reversed(shown) if r.frame.source == spec)
+        shown, results = _choose_and_show(gui, dialog, qtbot, "/camera/rgb/image_raw", spec)
         assert results.frame.data.shape == (HEIGHT, WIDTH, 3)
         assert results.frame.frame_id == "camera_rgb_optical_frame"
         assert results.frame.data[HEIGHT // 2, WIDTH // 4 + 1].tolist() == [0, 0, 220]
@@ -371,20 +389,6 @@ def test_tuning_on_a_live_ros1_topic(ros1_master, image_live_source, make_gui, q
         node.stop()
 
 
-def _dds_env_module():
-    """h2's DDS loopback fixtures, one shared instance (it remembers the domain ids handed out)."""
-    name = "objrec_tests_dds_env"
-    if name not in sys.modules:
-        spec = importlib.util.spec_from_file_location(name, Path(__file__).parents[1] / "ros" / "live" / "dds_env.py")
-        module = importlib.util.module_from_spec(spec)
-        sys.modules[name] = module
-        spec.loader.exec_module(module)
-    return sys.modules[name]
-
-
-dds_env = _dds_env_module().dds_env  # the fixture, used by name
-
-
 def test_tuning_on_a_ros2_topic(dds_env, image_live_source, make_gui, qtbot):
     """A camera on a ROS 2 domain (objrec's own DDS publisher, best effort as a ROS 2 camera driver sends):
     listed, opened, and its frames on screen."""
@@ -420,13 +424,8 @@ def test_tuning_on_a_ros2_topic(dds_env, image_live_source, make_gui, qtbot):
                 return ("/camera/color/image_raw", "sensor_msgs/msg/Image", True) in rows
 
             qtbot.waitUntil(listed_camera, timeout=HANG_GUARD_MS)
-            shown = []
-            gui.frameShown.connect(lambda item: shown.append(item.results))
-            dialog.choose("/camera/color/image_raw")
             spec = f"ros2:/camera/color/image_raw,domain={dds_env.domain}"
-            assert dialog.spec == spec
-            qtbot.waitUntil(lambda: sum(r.frame.source == spec for r in shown) >= 3, timeout=HANG_GUARD_MS)
-            results = next(r for r in reversed(shown) if r.frame.source == spec)
+            _, results = _choose_and_show(gui, dialog, qtbot, "/camera/color/image_raw", spec)
             assert np.array_equal(results.frame.data, pixels)
             assert results.frame.frame_id == "camera_color_optical_frame"
             assert len(results.objects.objects) == 1
@@ -439,19 +438,12 @@ def test_tuning_on_a_ros2_topic(dds_env, image_live_source, make_gui, qtbot):
 @pytest.fixture
 def cloud_live_source():
     """The 3D live source, registered in code when the installed entry points do not list it yet."""
-    from objrec_core import register_source, source_schemes
-    from objrec_core.registry import unregister_source
+    def cloud_source() -> type:
+        from objrec3d.live_source import CloudLiveSource
 
-    if "ros2" in source_schemes("3d"):
-        yield
-        return
-    from objrec3d.live_source import CloudLiveSource
+        return CloudLiveSource
 
-    register_source(CloudLiveSource, "3d.live")
-    try:
-        yield
-    finally:
-        unregister_source("3d.live")
+    yield from _live_source_registered("3d", "ros2", cloud_source)
 
 
 def test_a_3d_pipeline_tunes_on_a_live_cloud(dds_env, cloud_live_source, make_gui, qtbot):
@@ -493,12 +485,8 @@ def test_a_3d_pipeline_tunes_on_a_live_cloud(dds_env, cloud_live_source, make_gu
             # a 3D pipeline reads Image topics too (depth images with their CameraInfo): offered, not greyed
             assert rows == [("/camera/color/image_raw", "sensor_msgs/msg/Image", True),
                             ("/camera/depth/points", "sensor_msgs/msg/PointCloud2", True)]
-            shown = []
-            gui.frameShown.connect(lambda item: shown.append(item.results))
-            dialog.choose("/camera/depth/points")
             spec = f"ros2:/camera/depth/points,domain={dds_env.domain}"
-            qtbot.waitUntil(lambda: sum(r.frame.source == spec for r in shown) >= 2, timeout=HANG_GUARD_MS)
-            results = next(r for r in reversed(shown) if r.frame.source == spec)
+            _, results = _choose_and_show(gui, dialog, qtbot, "/camera/depth/points", spec, frames=2)
             assert np.array_equal(results.frame.data.points.reshape(-1, 3), points)
             assert results.frame.frame_id == "camera_depth_optical_frame"
             assert gui.central.currentWidget() is gui.view3d

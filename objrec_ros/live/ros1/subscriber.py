@@ -17,8 +17,8 @@ import xmlrpc.client
 from collections.abc import Callable
 from typing import Any
 
-from ..slot import NewestSlot
-from ..transport import LiveError, LiveMessage, Subscription
+from ..slot import NewestSlot, SlotSubscription
+from ..transport import LiveError, LiveMessage
 from .master import Master
 from .names import from_ros1_type
 from .rpc import RpcFailure, call
@@ -104,7 +104,7 @@ class _Link:
             pause = min(pause * 2, MAX_RETRY)
 
 
-class Ros1Subscription(Subscription):
+class Ros1Subscription(SlotSubscription):
     """The newest message of ``topic`` from all its publishers; made by :meth:`Ros1Transport.subscribe`."""
 
     def __init__(self, topic: str, msgtype: str | None, ros1_type: str, md5sum: str, definition: str,
@@ -201,17 +201,6 @@ class Ros1Subscription(Subscription):
                                 f"{self._master.uri}); published now: {listed or 'nothing'}")
             with self._lock:
                 self._arrived.wait(min(left, _POLL_MASTER))
-
-    def next(self, timeout: float | None) -> LiveMessage | None:
-        return self._slot.take(timeout)
-
-    @property
-    def received(self) -> int:
-        return self._slot.received
-
-    @property
-    def dropped(self) -> int:
-        return self._slot.dropped
 
     @property
     def msgtype(self) -> str | None:

@@ -17,8 +17,8 @@ from cyclonedds.sub import DataReader
 from cyclonedds.topic import Topic
 from rosbags.typesys.store import Typestore
 
-from ..slot import NewestSlot
-from ..transport import LiveError, LiveMessage, Subscription
+from ..slot import NewestSlot, SlotSubscription
+from ..transport import LiveError, LiveMessage
 from .dds_types import idl_struct
 from .discovery import Publications
 from .entities import delete_entity
@@ -28,7 +28,7 @@ from .wire import take_raw
 log = logging.getLogger(__name__)
 
 
-class Ros2Subscription(Subscription):
+class Ros2Subscription(SlotSubscription):
     """The newest sample of one ROS 2 topic; see :class:`objrec_ros.live.transport.Subscription`."""
 
     def __init__(self, participant: DomainParticipant, publications: Publications, topic: str, dds_name: str,
@@ -105,15 +105,7 @@ class Ros2Subscription(Subscription):
                 self.wait_type(0.0)
             if timeout is not None:
                 timeout = max(0.0, timeout - (time.monotonic() - started))
-        return self._slot.take(timeout)
-
-    @property
-    def received(self) -> int:
-        return self._slot.received
-
-    @property
-    def dropped(self) -> int:
-        return self._slot.dropped
+        return super().next(timeout)
 
     @property
     def publishers(self) -> int:

@@ -15,14 +15,10 @@ whose first discovery ports are free on this host (other programs may be using D
 Domain ids stay within 1..101 so that their ports (7400 + 250 * id + ...) stay below Linux's ephemeral
 range (32768 and up), as ROS 2's documentation advises.
 
-Use from a test module (``--import-mode=importlib`` puts no test folder on ``sys.path``)::
+Use from a test module (``--import-mode=importlib``: import it by its package name, as ros1_env is, so that
+every test module shares the one instance that remembers the domain ids handed out)::
 
-    name = "objrec_tests_dds_env"      # one instance per session: it remembers the domain ids handed out
-    if name not in sys.modules:
-        spec = importlib.util.spec_from_file_location(name, Path(__file__).with_name("dds_env.py"))
-        sys.modules[name] = importlib.util.module_from_spec(spec)   # before exec: dataclasses look it up
-        spec.loader.exec_module(sys.modules[name])
-    dds = sys.modules[name]
+    from tests.ros.live import dds_env as dds
     dds_env = dds.dds_env              # the fixture, now visible to the module's tests
 
     def test_x(dds_env):
@@ -36,8 +32,11 @@ import fcntl
 import os
 import random
 import re
+import select
 import socket
+import subprocess
 import tempfile
+import time
 from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -170,6 +169,49 @@ def dds_env(monkeypatch: pytest.MonkeyPatch) -> Iterator[DdsEnv]:
         monkeypatch.setenv(name, setting.env[name])
     yield setting
     release(setting.domain)
+
+
+#: ROS 2's generated IDL for sensor_msgs/msg/Image, written by hand in cyclonedds' Python IDL: the start of a
+#: child script that stands in for a ROS 2 node (none can be installed here) and knows nothing of objrec.
+ROS2_IMAGE_IDL = '''
+from dataclasses import dataclass
+from cyclonedds.idl import IdlStruct, types
+
+@dataclass
+class Time(IdlStruct, typename="builtin_interfaces::msg::dds_::Time_"):
+    sec: types.int32
+    nanosec: types.uint32
+
+@dataclass
+class Header(IdlStruct, typename="std_msgs::msg::dds_::Header_"):
+    stamp: Time
+    frame_id: str
+
+@dataclass
+class Image(IdlStruct, typename="sensor_msgs::msg::dds_::Image_"):
+    header: Header
+    height: types.uint32
+    width: types.uint32
+    encoding: str
+    is_bigendian: types.uint8
+    step: types.uint32
+    data: types.sequence[types.uint8]
+'''
+
+
+def child_line(child: subprocess.Popen, guard: float, what: str) -> str:
+    """The child's next stdout line (stripped); the test fails naming ``what`` if the child ends first (with
+    its stderr) or says nothing within ``guard`` seconds (a hang guard, not a timing assertion)."""
+    assert child.stdout is not None and child.stderr is not None
+    deadline = time.monotonic() + guard
+    while time.monotonic() < deadline:
+        if select.select([child.stdout], [], [], 0.1)[0]:
+            line = child.stdout.readline()
+            if line:
+                return line.strip()
+        if child.poll() is not None:
+            pytest.fail(f"{what}: the child ended ({child.returncode}): {child.stderr.read()}")
+    pytest.fail(f"{what}: nothing within {guard:g} s")
 
 
 _HEX_ADDRESS = re.compile(r"^([0-9A-F]{8}):([0-9A-F]{4})$")

@@ -21,7 +21,7 @@ import pytest
 from rosbags.typesys.store import Typestore
 
 from objrec_ros.live import TRANSPORTS
-from objrec_ros.live.slot import NewestSlot
+from objrec_ros.live.slot import NewestSlot, SlotSubscription
 from objrec_ros.live.transport import LiveError, LiveMessage, LiveTopic, Publisher, Subscription, Transport
 
 _NAME = re.compile(r"^(/[A-Za-z][A-Za-z0-9_]*)+$")
@@ -68,7 +68,7 @@ class MemoryBus:
 BUS = MemoryBus()
 
 
-class MemorySubscription(Subscription):
+class MemorySubscription(SlotSubscription):
     def __init__(self, bus: MemoryBus, topic: str, msgtype: str | None) -> None:
         self.bus, self.topic, self.msgtype = bus, topic, msgtype
         self._slot: NewestSlot[LiveMessage] = NewestSlot()  # the transports' own newest-wins slot
@@ -86,17 +86,6 @@ class MemorySubscription(Subscription):
                     raise LiveError(f"no publisher of {self.topic} within {timeout:g} s (live: {self.bus.live()})")
                 self.bus.lock.wait(min(left, 0.05))
             return self.bus.types[self.topic]
-
-    def next(self, timeout: float | None) -> LiveMessage | None:
-        return self._slot.take(timeout)
-
-    @property
-    def received(self) -> int:
-        return self._slot.received
-
-    @property
-    def dropped(self) -> int:
-        return self._slot.dropped
 
     def close(self) -> None:
         with self.bus.lock:

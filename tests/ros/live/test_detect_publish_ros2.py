@@ -10,13 +10,11 @@ detection stamped like it arrives, so every frame is detected whatever the speed
 
 from __future__ import annotations
 
-import importlib.util
 import json
 import signal
 import subprocess
 import sys
 import threading
-from pathlib import Path
 from typing import Any
 
 import cv2
@@ -28,17 +26,8 @@ from tests.ros.live import memory_transport
 pytest.importorskip("cyclonedds", reason="the ros2 extra (cyclonedds) is not installed")
 
 
-def _dds_env_module() -> Any:
-    name = "objrec_tests_dds_env"  # one shared instance: it remembers the domain ids handed out
-    if name not in sys.modules:
-        spec = importlib.util.spec_from_file_location(name, Path(__file__).with_name("dds_env.py"))
-        assert spec is not None and spec.loader is not None
-        sys.modules[name] = importlib.util.module_from_spec(spec)
-        spec.loader.exec_module(sys.modules[name])
-    return sys.modules[name]
+from tests.ros.live import dds_env as dds  # one shared instance: it remembers the domain ids handed out
 
-
-dds = _dds_env_module()
 dds_env = dds.dds_env  # the fixture, used by name
 
 HANG_GUARD = 300.0
@@ -46,37 +35,15 @@ START_NS = 1_700_000_000 * 10**9
 PERIOD_NS = 10**9 // 30
 
 #: A ROS 2 camera and a ROS 2 consumer of the detections, in plain cyclonedds with hand-written types.
-CAMERA_AND_CONSUMER = r'''
+CAMERA_AND_CONSUMER = dds.ROS2_IMAGE_IDL + r'''
 import json, os, sys, time
-from dataclasses import dataclass
 import numpy as np
 from cyclonedds.domain import DomainParticipant
-from cyclonedds.idl import IdlStruct, types
 from cyclonedds.pub import DataWriter
 from cyclonedds.qos import Policy, Qos
 from cyclonedds.sub import DataReader
 from cyclonedds.topic import Topic
 from cyclonedds.util import duration
-
-@dataclass
-class Time(IdlStruct, typename="builtin_interfaces::msg::dds_::Time_"):
-    sec: types.int32
-    nanosec: types.uint32
-
-@dataclass
-class Header(IdlStruct, typename="std_msgs::msg::dds_::Header_"):
-    stamp: Time
-    frame_id: str
-
-@dataclass
-class Image(IdlStruct, typename="sensor_msgs::msg::dds_::Image_"):
-    header: Header
-    height: types.uint32
-    width: types.uint32
-    encoding: str
-    is_bigendian: types.uint8
-    step: types.uint32
-    data: types.sequence[types.uint8]
 
 @dataclass
 class Point32(IdlStruct, typename="geometry_msgs::msg::dds_::Point32_"):

@@ -3,11 +3,8 @@ the bag source reads from the same messages, and ``--list-topics ros2:`` lists w
 
 from __future__ import annotations
 
-import importlib.util
-import sys
 import threading
 from collections.abc import Iterator
-from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -19,18 +16,9 @@ from tests.ros.live import memory_transport
 pytest.importorskip("cyclonedds", reason="the ros2 extra (cyclonedds) is not installed")
 
 
-def _dds_env_module() -> Any:
-    name = "objrec_tests_dds_env"  # one shared instance: it remembers the domain ids handed out
-    if name not in sys.modules:
-        spec = importlib.util.spec_from_file_location(name, Path(__file__).with_name("dds_env.py"))
-        assert spec is not None and spec.loader is not None
-        sys.modules[name] = importlib.util.module_from_spec(spec)
-        spec.loader.exec_module(sys.modules[name])
-    return sys.modules[name]
+from tests.ros.live import dds_env as dds  # one shared instance: it remembers the domain ids handed out
 
-
-dds = _dds_env_module()
-dds_env = dds.dds_env  # the fixtures, used by name
+dds_env = dds.dds_env  # the fixture, used by name
 live_sources = memory_transport.live_sources
 
 STAMP = 1_700_000_000_000_000_000

@@ -10,13 +10,10 @@ type by discovery and receiving rosbags' CDR bytes of the same fields.
 
 from __future__ import annotations
 
-import importlib.util
 import json
-import select
 import subprocess
 import sys
 import time
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -25,51 +22,14 @@ pytest.importorskip("cyclonedds", reason="the ros2 extra (cyclonedds) is not ins
 
 from objrec_ros.live import open_transport
 from objrec_ros.msgdefs import standard_typestore
+from tests.ros.live import dds_env as dds  # one shared instance: it remembers the domain ids handed out
 
-
-def _dds_env_module():
-    name = "objrec_tests_dds_env"
-    if name not in sys.modules:
-        spec = importlib.util.spec_from_file_location(name, Path(__file__).with_name("dds_env.py"))
-        assert spec is not None and spec.loader is not None
-        sys.modules[name] = importlib.util.module_from_spec(spec)
-        spec.loader.exec_module(sys.modules[name])
-    return sys.modules[name]
-
-
-dds = _dds_env_module()
-dds_env = dds.dds_env
+dds_env = dds.dds_env  # the fixture, used by name
 
 HANG_GUARD = 60.0
 
-#: ROS 2's generated IDL for sensor_msgs/msg/Image, written by hand in cyclonedds' Python IDL.
-ROS2_IMAGE_IDL = '''
-from dataclasses import dataclass
-from cyclonedds.idl import IdlStruct, types
-
-@dataclass
-class Time(IdlStruct, typename="builtin_interfaces::msg::dds_::Time_"):
-    sec: types.int32
-    nanosec: types.uint32
-
-@dataclass
-class Header(IdlStruct, typename="std_msgs::msg::dds_::Header_"):
-    stamp: Time
-    frame_id: str
-
-@dataclass
-class Image(IdlStruct, typename="sensor_msgs::msg::dds_::Image_"):
-    header: Header
-    height: types.uint32
-    width: types.uint32
-    encoding: str
-    is_bigendian: types.uint8
-    step: types.uint32
-    data: types.sequence[types.uint8]
-'''
-
 #: A plain subscriber with rclcpp's default QoS (reliable, keep last 10): prints the first image's fields.
-PLAIN_SUBSCRIBER = ROS2_IMAGE_IDL + '''
+PLAIN_SUBSCRIBER = dds.ROS2_IMAGE_IDL + '''
 import json, os
 from cyclonedds.domain import DomainParticipant
 from cyclonedds.qos import Policy, Qos
@@ -90,7 +50,7 @@ for s in reader.take_iter(timeout=duration(seconds=60)):
 
 #: A plain publisher with rclcpp's default QoS: a 4 x 6 mono8 image every 50 ms, for at most a minute;
 #: in XCDR1 as ROS 2 writes, or (XCDR=2 in its environment) XCDR2, as a DDS program might.
-PLAIN_PUBLISHER = ROS2_IMAGE_IDL + '''
+PLAIN_PUBLISHER = dds.ROS2_IMAGE_IDL + '''
 import os, time
 from cyclonedds.domain import DomainParticipant
 from cyclonedds.pub import DataWriter
@@ -110,19 +70,6 @@ for _ in range(1200):
     writer.write(image)
     time.sleep(0.05)
 '''
-
-
-def _line(child: subprocess.Popen, what: str) -> str:
-    deadline = time.monotonic() + HANG_GUARD
-    while time.monotonic() < deadline:
-        ready, _, _ = select.select([child.stdout], [], [], 0.1)
-        if ready:
-            line = child.stdout.readline()
-            if line:
-                return line.strip()
-        if child.poll() is not None:
-            pytest.fail(f"{what}: the child ended ({child.returncode}): {child.stderr.read()}")
-    pytest.fail(f"{what}: nothing within {HANG_GUARD:g} s")
 
 
 @pytest.fixture
@@ -150,7 +97,7 @@ def test_a_plain_ros2_style_subscriber_hears_objrecs_image(dds_env, run_child) -
                                         frame_id="camera_color_optical_frame"),
         height=3, width=4, encoding="bgr8", is_bigendian=0, step=12, data=pixels)
     child = run_child(PLAIN_SUBSCRIBER)
-    assert _line(child, "the subscriber started") == "ready"
+    assert dds.child_line(child, HANG_GUARD, "the subscriber started") == "ready"
     with open_transport("ros2", dds_env.options) as objrec:
         publisher = objrec.advertise("/objrec/image", "sensor_msgs/msg/Image", store)  # reliable, keep last 10
         deadline = time.monotonic() + HANG_GUARD
@@ -158,7 +105,7 @@ def test_a_plain_ros2_style_subscriber_hears_objrecs_image(dds_env, run_child) -
             assert time.monotonic() < deadline, "the plain subscriber never matched"
             time.sleep(0.02)
         publisher.publish(bytes(store.serialize_cdr(image, "sensor_msgs/msg/Image")))
-        heard = json.loads(_line(child, "the image heard"))
+        heard = json.loads(dds.child_line(child, HANG_GUARD, "the image heard"))
     assert heard == {"stamp": [1_700_000_042, 17], "frame_id": "camera_color_optical_frame", "height": 3,
                      "width": 4, "encoding": "bgr8", "is_bigendian": 0, "step": 12, "data": pixels.tolist()}
 
@@ -167,7 +114,7 @@ def test_a_plain_ros2_style_subscriber_hears_objrecs_image(dds_env, run_child) -
 def test_objrec_subscribes_to_a_plain_ros2_style_publisher(dds_env, run_child, xcdr: str) -> None:
     store = standard_typestore(2)
     child = run_child(PLAIN_PUBLISHER, XCDR=xcdr)
-    assert _line(child, "the publisher started") == "ready"
+    assert dds.child_line(child, HANG_GUARD, "the publisher started") == "ready"
     with open_transport("ros2", dds_env.options) as objrec:
         subscription = objrec.subscribe("/camera/image_raw")  # sensor data QoS: best effort, keep last 5
         assert subscription.wait_type(HANG_GUARD) == "sensor_msgs/msg/Image"

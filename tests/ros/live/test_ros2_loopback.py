@@ -12,12 +12,9 @@ Also the premise of ``dds_env``: a process reads CYCLONEDDS_URI anew for each ne
 
 from __future__ import annotations
 
-import importlib.util
 import re
-import select
 import subprocess
 import sys
-import time
 from pathlib import Path
 
 import pytest
@@ -27,20 +24,9 @@ pytest.importorskip("cyclonedds", reason="the ros2 extra (cyclonedds) is not ins
 from objrec_ros.live import open_transport
 from objrec_ros.live.ros2.entities import delete_entity
 from objrec_ros.msgdefs import standard_typestore
+from tests.ros.live import dds_env as dds  # one shared instance: it remembers the domain ids handed out
 
-
-def _dds_env_module():
-    name = "objrec_tests_dds_env"
-    if name not in sys.modules:
-        spec = importlib.util.spec_from_file_location(name, Path(__file__).with_name("dds_env.py"))
-        assert spec is not None and spec.loader is not None
-        sys.modules[name] = importlib.util.module_from_spec(spec)
-        spec.loader.exec_module(sys.modules[name])
-    return sys.modules[name]
-
-
-dds = _dds_env_module()
-dds_env = dds.dds_env
+dds_env = dds.dds_env  # the fixture, used by name
 
 HANG_GUARD = 60.0
 
@@ -68,25 +54,13 @@ _UDP_ADDRESS = re.compile(r"udp/(\d+\.\d+\.\d+\.\d+)")
 _NOT_USED = re.compile(r"config: |: interfaces: |: SPDP MC: |: default MC: ")
 
 
-def _line(child: subprocess.Popen, what: str) -> str:
-    deadline = time.monotonic() + HANG_GUARD
-    while time.monotonic() < deadline:
-        if select.select([child.stdout], [], [], 0.1)[0]:
-            line = child.stdout.readline()
-            if line:
-                return line.strip()
-        if child.poll() is not None:
-            pytest.fail(f"{what}: the child ended ({child.returncode}): {child.stderr.read()}")
-    pytest.fail(f"{what}: nothing within {HANG_GUARD:g} s")
-
-
 def test_a_childs_dds_traffic_stays_on_loopback(dds_env, tmp_path: Path) -> None:
     trace = tmp_path / "cyclonedds.log"
     store = standard_typestore(2)
     child = subprocess.Popen([sys.executable, "-c", OBJREC_PUBLISHER], env=dds_env.child_env(trace),
                              stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     try:
-        assert _line(child, "the publisher started") == "ready"
+        assert dds.child_line(child, HANG_GUARD, "the publisher started") == "ready"
         with open_transport("ros2", dds_env.options) as objrec:
             subscription = objrec.subscribe("/loopback", "std_msgs/msg/String", store)
             message = subscription.next(HANG_GUARD)
@@ -95,7 +69,7 @@ def test_a_childs_dds_traffic_stays_on_loopback(dds_env, tmp_path: Path) -> None
             sockets = dds.bound_udp_addresses(child.pid)
         child.stdin.write("stop\n")
         child.stdin.flush()
-        assert _line(child, "the publisher closed") == "closed"
+        assert dds.child_line(child, HANG_GUARD, "the publisher closed") == "closed"
         child.wait(timeout=HANG_GUARD)
     finally:
         child.kill()

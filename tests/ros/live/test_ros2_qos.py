@@ -9,10 +9,7 @@ type-hash user data.
 
 from __future__ import annotations
 
-import importlib.util
-import sys
 import time
-from pathlib import Path
 
 import pytest
 
@@ -25,20 +22,9 @@ from cyclonedds.qos import Policy
 from objrec_ros.live import open_transport
 from objrec_ros.live.ros2.entities import delete_entity
 from objrec_ros.msgdefs import standard_typestore
+from tests.ros.live import dds_env as dds  # one shared instance: it remembers the domain ids handed out
 
-
-def _dds_env_module():
-    name = "objrec_tests_dds_env"
-    if name not in sys.modules:
-        spec = importlib.util.spec_from_file_location(name, Path(__file__).with_name("dds_env.py"))
-        assert spec is not None and spec.loader is not None
-        sys.modules[name] = importlib.util.module_from_spec(spec)
-        spec.loader.exec_module(sys.modules[name])
-    return sys.modules[name]
-
-
-dds = _dds_env_module()
-dds_env = dds.dds_env
+dds_env = dds.dds_env  # the fixture, used by name
 
 HANG_GUARD = 30.0
 MS = 1_000_000

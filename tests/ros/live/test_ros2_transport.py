@@ -8,13 +8,11 @@ poll with generous deadlines (hang guards); nothing asserts wall-clock time.
 
 from __future__ import annotations
 
-import importlib.util
 import os
 import sys
 import threading
 import time
 from collections.abc import Callable
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -25,20 +23,9 @@ from objrec_ros.live import TRANSPORTS, LiveError, open_transport
 from objrec_ros.live.ros2 import NEEDS_EXTRA, Ros2Transport
 from objrec_ros.live.ros2.transport import domain_of
 from objrec_ros.msgdefs import standard_typestore
+from tests.ros.live import dds_env as dds  # one shared instance: it remembers the domain ids handed out
 
-
-def _dds_env_module():
-    name = "objrec_tests_dds_env"
-    if name not in sys.modules:
-        spec = importlib.util.spec_from_file_location(name, Path(__file__).with_name("dds_env.py"))
-        assert spec is not None and spec.loader is not None
-        sys.modules[name] = importlib.util.module_from_spec(spec)
-        spec.loader.exec_module(sys.modules[name])
-    return sys.modules[name]
-
-
-dds = _dds_env_module()
-dds_env = dds.dds_env
+dds_env = dds.dds_env  # the fixture, used by name
 
 HANG_GUARD = 30.0
 
