@@ -140,17 +140,6 @@ def camera(scheme: str, frames: int, fps: float) -> int:
 
 
 # -- the detector (child process) ----------------------------------------------------------------------------
-def _register_live_source() -> None:
-    """Register the 2D live source in code where the installed metadata lacks its ``2d.live`` entry point
-    (a checkout not reinstalled since it was added), as the tests do."""
-    from objrec_core import register_source, source_entries
-
-    if "2d.live" not in source_entries("2d"):
-        from objrec2d.live_source import ImageLiveSource
-
-        register_source(ImageLiveSource, "2d.live")
-
-
 def detector(scheme: str, params: Path, slow_ms: float, frames: int) -> int:
     """The hsv demo system over the live source with its detections published live, composed as objrec-detect
     composes ``--source ros1:/... --publish ros1:/...``; ends once the camera has been quiet for QUIET_END s
@@ -159,7 +148,6 @@ def detector(scheme: str, params: Path, slow_ms: float, frames: int) -> int:
     from objrec_apps.output_contract import RunEnd
     from objrec_core import DetectionDirector, build_system, open_source
 
-    _register_live_source()
     system = build_system(params)
     director = DetectionDirector(system, frame_id="camera")
     published = LiveDetections(f"{scheme}:{DETECTIONS_TOPIC}", system.object_array_type)

@@ -12,6 +12,7 @@ here" and every detection on it is a false positive.
 
 from __future__ import annotations
 
+import bisect
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass, field
 from typing import Any, Literal
@@ -71,14 +72,33 @@ class TruthSet:
         return self._by_index.get(index)
 
     def add(self, frame: FrameTruth) -> None:
-        """Add or replace the truth of one frame (the GUI's label mode, a demo source writing its own)."""
+        """Add or replace the truth of one frame (the GUI's label mode, a source writing its own, frame after
+        frame): in order at once, the lookups kept up to date, so a long run's truth grows in linear time."""
         old = self.lookup(frame.index if frame.index is not None else -1, frame.stamp_ns)
         if old is not None:
             self.frames.remove(old)
-        self.frames.append(frame)
-        self.frames.sort(key=lambda f: (f.index if f.index is not None else -1, f.stamp_ns or 0))
-        self.__post_init__()
+            self._forget(old)
+        key = _order(frame)
+        if not self.frames or _order(self.frames[-1]) <= key:
+            self.frames.append(frame)  # a source's frames come in order
+        else:
+            bisect.insort(self.frames, frame, key=_order)
+        if frame.index is not None:
+            self._by_index[frame.index] = frame
+        if frame.stamp_ns is not None:
+            self._by_stamp[frame.stamp_ns] = frame
+
+    def _forget(self, frame: FrameTruth) -> None:
+        if frame.index is not None and self._by_index.get(frame.index) is frame:
+            del self._by_index[frame.index]
+        if frame.stamp_ns is not None and self._by_stamp.get(frame.stamp_ns) is frame:
+            del self._by_stamp[frame.stamp_ns]
 
     def subset(self, frames: Sequence[FrameTruth]) -> TruthSet:
         """A set of some of these frames (a tuning split), same kind, keying and path."""
         return TruthSet(self.kind, list(frames), self.keyed_by, self.path)
+
+
+def _order(frame: FrameTruth) -> tuple[int, int]:
+    """Where a frame stands in a truth set: by index, then stamp (a frame without one first)."""
+    return (frame.index if frame.index is not None else -1, frame.stamp_ns or 0)

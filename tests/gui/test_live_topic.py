@@ -12,7 +12,6 @@ from __future__ import annotations
 import sys
 import threading
 import time
-from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
 
@@ -274,34 +273,7 @@ while not rospy.is_shutdown():
 WIDTH, HEIGHT = 96, 72  # not the demo's 640x480: the frames on screen must be the topic's
 
 
-def _live_source_registered(kind: str, scheme: str, live_source: Callable[[], type]) -> Iterator[None]:
-    """A kind's live source, registered in code (``live_source()`` imports its class) when the installed entry
-    points do not list ``scheme`` for the kind yet; unregistered afterwards."""
-    from objrec_core import register_source, source_schemes
-    from objrec_core.registry import unregister_source
-
-    if scheme in source_schemes(kind):
-        yield
-        return
-    register_source(live_source(), f"{kind}.live")
-    try:
-        yield
-    finally:
-        unregister_source(f"{kind}.live")
-
-
-@pytest.fixture
-def image_live_source():
-    """The 2D live source, registered in code when the installed entry points do not list it yet."""
-    def image_source() -> type:
-        from objrec2d.live_source import ImageLiveSource
-
-        return ImageLiveSource
-
-    yield from _live_source_registered("2d", "ros1", image_source)
-
-
-def test_the_dialog_offers_what_the_kinds_live_source_reads(image_live_source):
+def test_the_dialog_offers_what_the_kinds_live_source_reads():
     reading = live_reading("2d", "ros1")
     assert reading.msgtypes == IMAGES
     assert reading.text == "images (sensor_msgs/Image or CompressedImage)"
@@ -319,7 +291,7 @@ def _choose_and_show(gui, dialog, qtbot, topic: str, spec: str, frames: int = 3)
     return shown, next(r for r in reversed(shown) if r.frame.source == spec)
 
 
-def test_tuning_on_a_live_ros1_topic(ros1_master, image_live_source, make_gui, qtbot, tmp_path):
+def test_tuning_on_a_live_ros1_topic(ros1_master, make_gui, qtbot, tmp_path):
     node = RospyNode.start(PUBLISHER, ros1_master, tmp_path / "nodes", args=["/camera/rgb/image_raw", str(WIDTH),
                                                                              str(HEIGHT)], name="fake_camera")
     try:
@@ -389,7 +361,7 @@ def test_tuning_on_a_live_ros1_topic(ros1_master, image_live_source, make_gui, q
         node.stop()
 
 
-def test_tuning_on_a_ros2_topic(dds_env, image_live_source, make_gui, qtbot):
+def test_tuning_on_a_ros2_topic(dds_env, make_gui, qtbot):
     """A camera on a ROS 2 domain (objrec's own DDS publisher, best effort as a ROS 2 camera driver sends):
     listed, opened, and its frames on screen."""
     from objrec_ros.live import open_transport
@@ -435,18 +407,7 @@ def test_tuning_on_a_ros2_topic(dds_env, image_live_source, make_gui, qtbot):
             sender.join(timeout=60)
 
 
-@pytest.fixture
-def cloud_live_source():
-    """The 3D live source, registered in code when the installed entry points do not list it yet."""
-    def cloud_source() -> type:
-        from objrec3d.live_source import CloudLiveSource
-
-        return CloudLiveSource
-
-    yield from _live_source_registered("3d", "ros2", cloud_source)
-
-
-def test_a_3d_pipeline_tunes_on_a_live_cloud(dds_env, cloud_live_source, make_gui, qtbot):
+def test_a_3d_pipeline_tunes_on_a_live_cloud(dds_env, make_gui, qtbot):
     """PointCloud2 on a ROS 2 domain feeds a 3D pipeline: its points in the cloud view, and the seek bar, shown
     for the demo of one frame, hidden for the topic."""
     from objrec_ros.live import open_transport

@@ -215,46 +215,8 @@ def _live_source_classes() -> dict[str, Any]:
 _SOURCES: dict[str, Any] = {}
 
 
-#: Python code that runs objrec-detect (``sys.argv[1:]``) in a child process with the live sources registered
-#: where the installed metadata lacks their entry points (see :func:`live_sources_registered`).
-DETECT_CHILD = """
-import sys
-from objrec_core import register_source, source_entries
-for kind, module, name in (("2d", "objrec2d.live_source", "ImageLiveSource"),
-                           ("3d", "objrec3d.live_source", "CloudLiveSource")):
-    if kind + ".live" not in source_entries(kind):
-        register_source(getattr(__import__(module, fromlist=[name]), name), kind + ".live")
-from objrec_apps.detect import main
-sys.exit(main(sys.argv[1:]))
-"""
-
-
-@contextmanager
-def live_sources_registered() -> Iterator[None]:
-    """The kinds' ``ros1:``/``ros2:`` sources registered in code where the installed metadata lacks their
-    entry points (``2d.live``, ``3d.live``: a checkout not reinstalled since they were added); else nothing."""
-    from objrec_core import register_source, source_entries
-    from objrec_core.registry import unregister_source
-
-    added = []
-    for kind, implementation in (("2d", "objrec2d.live_source:ImageLiveSource"),
-                                 ("3d", "objrec3d.live_source:CloudLiveSource")):
-        if f"{kind}.live" not in source_entries(kind):
-            module, _, name = implementation.partition(":")
-            register_source(getattr(__import__(module, fromlist=[name]), name), f"{kind}.live")
-            added.append(f"{kind}.live")
-    try:
-        yield
-    finally:
-        for name in added:
-            unregister_source(name)
-
-
-@pytest.fixture
-def live_sources() -> Iterator[None]:
-    """``ros1:``/``ros2:`` specs open the kinds' live sources in this test (see live_sources_registered)."""
-    with live_sources_registered():
-        yield
+#: Python code that runs objrec-detect (``sys.argv[1:]``) in a child process.
+DETECT_CHILD = "import sys; from objrec_apps.detect import main; sys.exit(main(sys.argv[1:]))"
 
 
 @contextmanager
@@ -273,8 +235,7 @@ def installed() -> Iterator[MemoryBus]:
     for name, cls in _SOURCES.items():
         register_source(cls, name)
     try:
-        with live_sources_registered():
-            yield bus
+        yield bus
     finally:
         for name in _SOURCES:
             unregister_source(name)

@@ -18,7 +18,6 @@ from tests.ros.live import memory_transport
 from tests.ros.live.memory_transport import MemoryBus, MemoryTransport
 
 memory_bus = memory_transport.memory_bus  # the fixtures, used by name
-live_sources = memory_transport.live_sources
 
 #: A hang guard only: nothing here is timed, a wait that never ends fails after this.
 HANG_GUARD = 60.0
@@ -124,7 +123,7 @@ def test_a_topic_of_another_type_or_a_depth_topic_is_refused_for_images(memory_b
     ("ros2:/cam,domain=300", "ros2:/cam,domain=300: option domain='300' is invalid"),
     ("ros1:/cam,rate=3", "ros1:/cam,rate=3: unknown option 'rate'"),
 ])
-def test_bad_live_specs_are_one_line_before_anything_is_joined(live_sources, spec, expected):
+def test_bad_live_specs_are_one_line_before_anything_is_joined(spec, expected):
     with pytest.raises(SourceError) as caught:
         open_source(spec, "2d")
     assert str(caught.value).startswith(expected)

@@ -14,11 +14,10 @@ import numpy as np
 import pytest
 
 from objrec_core import SourceError, open_source
-from tests.ros.live import memory_transport, ros1_env
+from tests.ros.live import ros1_env
 from tests.ros.live.ros1_env import Ros1Master, RospyNode
 
 ros1_master = ros1_env.ros1_master  # the fixtures, used by name
-live_sources = memory_transport.live_sources
 
 HANG_GUARD = 120.0
 STAMP = 1_700_000_000_000_000_000
@@ -65,7 +64,7 @@ def player(master: Ros1Master, tmp_path: Path, streams: list[tuple[str, str, Pat
     return node
 
 
-def test_images_of_every_kind_arrive_as_the_bag_source_reads_them(ros1_master, live_sources, tmp_path, bagmaker,
+def test_images_of_every_kind_arrive_as_the_bag_source_reads_them(ros1_master, tmp_path, bagmaker,
                                                                   demo_images):
     maker = bagmaker.Messages("ros1")
     picture = demo_images[0]
@@ -88,7 +87,7 @@ def test_images_of_every_kind_arrive_as_the_bag_source_reads_them(ros1_master, l
                 assert (frame.stamp_ns, frame.frame_id) == (STAMP, "cam")
 
 
-def test_a_depth_topic_with_camera_info_and_colour_equals_the_bag_source(ros1_master, live_sources, tmp_path,
+def test_a_depth_topic_with_camera_info_and_colour_equals_the_bag_source(ros1_master, tmp_path,
                                                                          bagmaker, demo_images):
     maker = bagmaker.Messages("ros1")
     rng = np.random.default_rng(5)
@@ -115,7 +114,7 @@ def test_a_depth_topic_with_camera_info_and_colour_equals_the_bag_source(ros1_ma
     assert (live.stamp_ns, live.frame_id) == (recorded.stamp_ns, recorded.frame_id) == (STAMP, "d")
 
 
-def test_a_publisher_that_goes_away_and_comes_back_is_picked_up_again(ros1_master, live_sources, tmp_path,
+def test_a_publisher_that_goes_away_and_comes_back_is_picked_up_again(ros1_master, tmp_path,
                                                                       bagmaker, demo_images):
     maker = bagmaker.Messages("ros1")
     small = demo_images[0][:48, :64]
@@ -134,7 +133,7 @@ def test_a_publisher_that_goes_away_and_comes_back_is_picked_up_again(ros1_maste
     assert frame.stamp_ns == STAMP + 1
 
 
-def test_a_topic_nobody_publishes_names_what_is_live(ros1_master, live_sources, tmp_path, bagmaker, demo_images):
+def test_a_topic_nobody_publishes_names_what_is_live(ros1_master, tmp_path, bagmaker, demo_images):
     maker = bagmaker.Messages("ros1")
     folder = write_messages(tmp_path / "m", maker, [maker.image(demo_images[0][:4, :4], "bgr8", STAMP)],
                             bagmaker.IMAGE)
@@ -146,7 +145,7 @@ def test_a_topic_nobody_publishes_names_what_is_live(ros1_master, live_sources, 
     assert "/camera/rgb/image_raw" in message and "/camera/other" in message and "\n" not in message
 
 
-def test_a_master_nobody_runs_is_one_line(live_sources):
+def test_a_master_nobody_runs_is_one_line():
     port = ros1_env.free_port()
     with pytest.raises(SourceError) as caught:
         open_source(f"ros1:/camera/image,master=http://127.0.0.1:{port}/,timeout=2", "2d")

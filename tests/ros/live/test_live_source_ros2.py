@@ -11,7 +11,6 @@ import numpy as np
 import pytest
 
 from objrec_core import open_source
-from tests.ros.live import memory_transport
 
 pytest.importorskip("cyclonedds", reason="the ros2 extra (cyclonedds) is not installed")
 
@@ -19,7 +18,6 @@ pytest.importorskip("cyclonedds", reason="the ros2 extra (cyclonedds) is not ins
 from tests.ros.live import dds_env as dds  # one shared instance: it remembers the domain ids handed out
 
 dds_env = dds.dds_env  # the fixture, used by name
-live_sources = memory_transport.live_sources
 
 STAMP = 1_700_000_000_000_000_000
 
@@ -56,7 +54,7 @@ def repeaters() -> Iterator[list[Repeater]]:
         repeater.close()
 
 
-def test_a_pointcloud2_topic_gives_the_frames_the_bag_source_reads(dds_env, live_sources, repeaters, tmp_path,
+def test_a_pointcloud2_topic_gives_the_frames_the_bag_source_reads(dds_env, repeaters, tmp_path,
                                                                    bagmaker, demo_clouds):
     maker = bagmaker.Messages("mcap")
     cloud = demo_clouds[0]
