@@ -26,6 +26,7 @@ import navigation
 from navigation.costmap import ObstacleField
 from navigation.docking import DockingStation
 from navigation.geometry import Pose2D
+from navigation.lost_scenarios import spread_goals
 from navigation.maps import load_map
 from navigation.patrol import PatrolMachine
 from navigation.planner import Planner
@@ -39,23 +40,6 @@ SPEED_TARGET = 500.0
 PLAN_TARGET_MS = 100.0
 
 
-
-
-def free_poses(planner: Planner, n: int, seed: int, clearance: float = 0.4) -> list[Pose2D]:
-    """``n`` poses spread over the largest free region (farthest-point sampling)."""
-    counts = np.bincount(planner.labels.ravel())
-    counts[0] = 0
-    rows, cols = np.nonzero((planner.labels == counts.argmax()) & (planner.clear >= clearance))
-    m = planner.field.map
-    pts = np.array([m.cell_to_world(i - 1, j - 1) for i, j in zip(cols, rows, strict=True)])
-    rng = np.random.default_rng(seed)
-    chosen = [int(rng.integers(len(pts)))]
-    dist = np.hypot(*(pts - pts[chosen[0]]).T)
-    for _ in range(n - 1):
-        k = int(dist.argmax())
-        chosen.append(k)
-        dist = np.minimum(dist, np.hypot(*(pts - pts[k]).T))
-    return [Pose2D(float(pts[k][0]), float(pts[k][1]), float(rng.uniform(-np.pi, np.pi))) for k in chosen]
 
 
 def bench_patrol(name: str, sim: Simulation, goals: list[Pose2D], station: Pose2D | None, laps: int) -> dict:
@@ -188,7 +172,7 @@ def main() -> None:
     planner = Planner(field)
     print(f"Willow costmap (distance field, costs, regions, 6 ALT landmarks): built once in "
           f"{(time.perf_counter() - t0) * 1000:.0f} ms")
-    goals = free_poses(planner, 8, seed=0)
+    goals = spread_goals(planner, 8, seed=0)
     sim = Simulation(willow, goals[-1], SimConfig(record_every=0), field_=field, planner=planner)
     bench_patrol("Willow (8 goals across the building)", sim, goals, None, laps=2)
     bench_planning(planner, args.plans, seed=1)

@@ -577,6 +577,8 @@ class Str(Parameter):
     def validate_value(self, value: Any, module: str) -> str:
         if not isinstance(value, str):
             raise self._fail(module, value, f"expected text, got {type(value).__name__}")
+        if any("\ud800" <= c <= "\udfff" for c in value):  # a lone surrogate: not text, and OpenCV crashes on it
+            raise self._fail(module, value, "expected text, got a lone surrogate (bytes that are not UTF-8)")
         return str(value)
 
     def from_text(self, text: str) -> str:

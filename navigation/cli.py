@@ -12,6 +12,7 @@ from __future__ import annotations
 import argparse
 import logging
 import math
+import os
 import sys
 from collections.abc import Sequence
 from dataclasses import replace
@@ -21,6 +22,7 @@ from foxgloveio.server import FoxgloveUnavailable, add_foxglove_argument
 from rerunio import RerunUnavailable
 from strictio import InputError, OutputError
 from strictio.cli_numbers import CommandLineParser, Number, check_limit_settings, fields
+from strictio.output_paths import RunFiles
 from strictio.shown import printable
 from strictio.signals import StopSignals
 
@@ -29,12 +31,14 @@ from .diagram import write_diagram
 from .docking import DockingStation
 from .foxglove_log import PatrolView, open_patrol_view
 from .geometry import Pose2D
-from .maps import MapError, load_map
+from .lost_options import add_lost_robot_options, apply_lost_robot_options
+from .maps import MapError, load_map, load_map_metadata
+from .nav_params import add_nav_params_options, apply_to_simulation, in_keepout, nav_params_from_args
 from .patrol import PatrolMachine
 from .poses import PoseFileError, load_poses
-from .render import ANIMATED, STILL, RunPicture, save_render
+from .render import ANIMATED, STILL, LocalizationMarks, RunPicture, save_render
 from .rerun_log import PatrolRecorder, open_patrol_rerun
-from .robots import DEFAULT_ROBOT, RobotError, RobotSetup, RobotUnavailable, open_robot, robot_names
+from .robots import DEFAULT_ROBOT, RobotError, RobotSetup, RobotUnavailable, open_robot, parse_robot_spec, robot_names
 from .runner import MAX_STEPS, Summary, run_patrol
 from .sim_options import add_simulation_options, simulation_config
 from .simulation import SimConfig, Simulation, StartPoseError
@@ -101,6 +105,8 @@ def build_parser() -> argparse.ArgumentParser:
                            "ros1,master=http://HOST:11311,kobuki=/mobile_base/sensors/core for a TurtleBot 2 "
                            f"(installed: {', '.join(robot_names())}); the options of a robot are in docs/navigation.md")
     add_simulation_options(p)
+    add_nav_params_options(p)
+    add_lost_robot_options(p)
     out = p.add_argument_group("output")
     out.add_argument("--events", metavar="FILE", help="write every event as JSON Lines")
     out.add_argument("--render", metavar="PATH",
@@ -153,12 +159,17 @@ def _format_localization(summary: Summary) -> str:
     if summary.localization == "exact":
         return "exact (navigation sees the true pose)"
     updates = f", {summary.localization_updates} filter updates" if summary.localization == "amcl" else ""
+    lost = (f"; lost {summary.localization_lost} time(s), relocalised {summary.localization_regained}"
+            if summary.localization_lost else "")
     return (f"{summary.localization}: estimate off by {summary.localization_error_mean:.3f} m on average, "
-            f"{summary.localization_error_max:.3f} m at most{updates}")
+            f"{summary.localization_error_max:.3f} m at most{updates}{lost}")
 
 
 def _config(args: argparse.Namespace) -> SimConfig:
+    nav = nav_params_from_args(args)  # the parameters file under the command line's options
     base = SimConfig()
+    margin = base.inflation_margin if nav.inflation_margin is None else nav.inflation_margin
+    base = replace(base, inflation_margin=margin, follower=nav.follower_params(base.follower))
     robot_low = args.robot_battery_low
     robot_params = RobotBatteryParams(
         runtime_h=args.robot_runtime, charge_time_h=args.robot_charge_time,
@@ -205,6 +216,24 @@ def _make_parent_folders(*paths: str | None) -> None:
             raise OutputError(path, f"cannot be written: folder {Path(path).parent}: {exc.strerror or exc}") from None
 
 
+def _check_output_paths(args: argparse.Namespace) -> None:
+    """Every output path judged before anything is written (:mod:`strictio.output_paths`): none may replace
+    the pose file, the map or its image, or a file a ``--robot`` option names; none may be read-only or a FIFO."""
+    files = RunFiles().reads(args.poses, "the pose file").reads(args.map, "the map file")
+    files.reads(load_map_metadata(args.map).image, "the map image")
+    for option in ("nav_params", "keepout_mask", "speed_mask"):  # the navigation parameters and their masks
+        if getattr(args, option):
+            files.reads(getattr(args, option), f"the file of --{option.replace('_', '-')}")
+    for value in parse_robot_spec(args.robot)[1].values():
+        if value and os.path.lexists(value):
+            files.reads(value, "a file of --robot")
+    files.writes("--events", args.events, stream=True)
+    files.writes("--diagram", args.diagram)
+    files.writes("--render", args.render)
+    if args.rerun and args.rerun != "spawn":
+        files.writes("--rerun", args.rerun)
+
+
 def _run(parser: argparse.ArgumentParser, args: argparse.Namespace, early: StopSignals | None = None) -> int:
     logging.basicConfig(level=logging.WARNING - 10 * min(args.verbose, 2), stream=sys.stderr,
                         format="%(levelname)s %(name)s: %(message)s")
@@ -218,6 +247,11 @@ def _run(parser: argparse.ArgumentParser, args: argparse.Namespace, early: StopS
         _error(exc)
         return 2
 
+    try:
+        _check_output_paths(args)
+    except (OutputError, RobotError) as exc:
+        _error(exc)
+        return 2
     station_pose = None if args.no_station else pose_file.station
     if args.start:
         start = Pose2D(*args.start)
@@ -225,12 +259,23 @@ def _run(parser: argparse.ArgumentParser, args: argparse.Namespace, early: StopS
         start = station_pose or pose_file.goals[0]
     station = DockingStation.in_front_of(station_pose, args.dock_distance) if station_pose else None
     config = _config(args)
+    zones = None
     setup = RobotSetup(occ_map, start, tuple(pose_file.goals), station_pose, station, config,
                        stop_requested=lambda: early is not None and early.count > 0)
     try:
         sim = open_robot(args.robot, setup)
+        if isinstance(sim, Simulation):
+            zones = apply_to_simulation(sim, nav_params_from_args(args))  # keepout, cost shape, speed zones
+        elif args.nav_params or args.keepout_mask or args.speed_mask or args.cost_scaling_factor is not None:
+            log.warning("the navigation parameters and masks act on the simulator only; robot %s plans and drives "
+                        "with its own settings", args.robot)
     except (StartPoseError, RobotError, RobotUnavailable) as exc:
         _error(exc)
+        return 2
+    lost_problem = apply_lost_robot_options(sim, args)
+    if lost_problem:
+        sim.close()
+        _error(lost_problem)
         return 2
     if not isinstance(sim, Simulation) and args.rerun:
         sim.close()
@@ -240,6 +285,8 @@ def _run(parser: argparse.ArgumentParser, args: argparse.Namespace, early: StopS
         if isinstance(sim, Simulation) and sim.field.collides(goal.x, goal.y, config.robot.radius):
             log.warning("goal POSE_%d (%.2f, %.2f) is off the map or in an obstacle; it will be aborted",
                         i, goal.x, goal.y)
+        elif isinstance(sim, Simulation) and sim.planner.keepout is not None and in_keepout(sim.planner, goal):
+            log.warning("goal POSE_%d (%.2f, %.2f) is in a keepout zone; it will be aborted", i, goal.x, goal.y)
     if args.resume_after_charging and args.laps is None and args.time_limit is None and not args.realtime:
         log.warning("--resume-after-charging without --laps or --time-limit runs until Ctrl-C or %s steps",
                     f"{MAX_STEPS:,}")
@@ -276,8 +323,10 @@ def _run(parser: argparse.ArgumentParser, args: argparse.Namespace, early: StopS
         if early is not None and early.count:
             machine.request_preempt(early.reason)  # Ctrl-C or SIGTERM came during start-up
         states: list[tuple[float, str]] = []
+        marks = LocalizationMarks()  # the believed pose, losses and kidnaps, for --render
         if args.render:
             machine.state_listeners.append(lambda m: states.append((sim.clock.now, m.entering)))
+            sim.events.subscribe(marks)
         summary = run_patrol(machine, time_limit=args.time_limit, realtime=args.realtime)
     except OSError as exc:
         _error(exc)
@@ -298,7 +347,7 @@ def _run(parser: argparse.ArgumentParser, args: argparse.Namespace, early: StopS
                              caption=f"laps {summary.laps}  goals {summary.goals_reached}/"
                                      f"{summary.goals_reached + summary.goals_aborted}  "
                                      f"{summary.distance:.0f} m  collisions {summary.collisions}",
-                             states=states)
+                             states=states, zones=zones, localization=marks)
         try:
             save_render(args.render, picture)
         except (OSError, ValueError) as exc:

@@ -61,6 +61,7 @@ class LocalCostmap:
         # Bumped whenever the marked set changes, so a planner built for one set can be reused.
         self.version = 0
         self.scans = 0
+        self.monitor_scans = 0  # scans the controller's collision guard read while driving (see MoveBase)
         # What the last scan did: cells newly marked and cells cleared. Cleared cells mean that something
         # seen before is no longer there: it has moved, or been moved.
         self.last_marked = 0
@@ -109,14 +110,18 @@ class LocalCostmap:
         return pts[keep]
 
     # -- sensing --------------------------------------------------------------------------------------
-    def update(self, pose: Pose2D, scan: LaserScan) -> bool:
+    def update(self, pose: Pose2D, scan: LaserScan, monitor: bool = False) -> bool:
         """Clear the cells the beams pass through, then mark where they end; True when the layer changed.
 
         ``pose`` is where the robot believes it was when the scan was taken (the pose move_base drives on),
-        so the marks land where the planner will look for them.
+        so the marks land where the planner will look for them. ``monitor``: a scan the collision guard read
+        (counted in ``monitor_scans``, not ``scans``).
         """
         p = self.params
-        self.scans += 1
+        if monitor:
+            self.monitor_scans += 1
+        else:
+            self.scans += 1
         ranges = np.asarray(scan.ranges, dtype=np.float64)
         gone: set[int] = self._clear_seen(pose, scan, ranges) if self._cells else set()
         new: set[int] = set()
@@ -150,7 +155,8 @@ class LocalCostmap:
             beam = np.rint((bearing - scan.angle_min) / inc).astype(np.int64)
         else:
             beam = np.where(np.abs(bearing - scan.angle_min) < 1e-3, 0, -1)
-        seen = (beam >= 0) & (beam < n) & (dist <= self.params.raytrace_range)
+        # A short scan (the controller's guard) clears only as far as it reaches.
+        seen = (beam >= 0) & (beam < n) & (dist <= min(self.params.raytrace_range, scan.range_max))
         if not seen.any():
             return set()
         through = np.zeros(len(pts), dtype=bool)
@@ -159,13 +165,22 @@ class LocalCostmap:
         self._cells -= gone
         return gone
 
-    def clear(self) -> int:
-        """Forget every mark (the clear-costmap recovery); returns how many there were."""
-        n = len(self._cells)
-        if n:
-            self._cells.clear()
-            self._changed()
-        return n
+    def clear(self, pose: Pose2D | None = None, scan: LaserScan | None = None) -> int:
+        """The clear-costmap recovery: wipe every mark, then mark again what the current ``scan`` (taken at
+        ``pose``) shows; returns how many marks were wiped.
+
+        This is what clearing does on a robot, whose next sensor update re-marks what is still in view; here
+        that update is part of the clear, so an obstacle still in view (a walker standing in the way) survives
+        it and is not re-planned through. Without a scan every mark goes.
+        """
+        wiped = len(self._cells)
+        if not wiped:
+            return 0
+        self._cells.clear()
+        self._changed()
+        if pose is not None and scan is not None:
+            self.update(pose, scan)
+        return wiped
 
     # -- queries for the controller and the planner ---------------------------------------------------
     def distance(self, x: np.ndarray, y: np.ndarray, cells: np.ndarray) -> np.ndarray:

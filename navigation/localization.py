@@ -24,6 +24,7 @@ import logging
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, replace
+from typing import Any
 
 import cv2
 import numpy as np
@@ -31,7 +32,7 @@ import numpy as np
 from .costmap import ObstacleField
 from .events import Event, EventLog
 from .geometry import Pose2D, wrap_angle
-from .laser import LaserParams, LaserScan
+from .laser import LaserParams, LaserScan, cast_scan
 
 log = logging.getLogger(__name__)
 
@@ -54,6 +55,9 @@ class AmclParams:
       does not, and a beam on one of those is better left out than explained by a wrong pose.
       ``beam_skip_distance`` 0.3 m (amcl 0.5): a crate standing 0.4 m from a wall is then skipped too,
       and the simulated laser is exact enough for beams on the map to stay within it.
+    - ``short_margin`` 0.3 m: a beam this much shorter than the map's wall seen from the believed pose is
+      left out (the beam model's ``z_short``: something unmapped in front of the wall) while the cloud's
+      spread is below the margin; 0 turns it off.
     - ``initial_sigma_*`` 0.1 m and 0.05 rad (amcl's ``initial_cov`` 0.5 m and pi/12 rad, for a click in
       rviz): the patrol starts at a known pose, the station or ``--start``. :meth:`Amcl.set_pose` takes
       wider spreads.
@@ -62,6 +66,18 @@ class AmclParams:
       weighted mean of the particles within this distance of the cloud's mean.
 
     A ``localization`` event is written every ``event_period`` simulated seconds and at every goal result.
+
+    Confidence (not in amcl, which publishes a covariance and leaves judging it to others): after each update
+    the filter measures the cloud's ``spread`` (metres, the root of the position covariance's trace) and the
+    ``score``, the share of the scan's beams whose end points land within ``score_distance`` of a mapped
+    obstacle, or short of a mapped wall (something unmapped in front of it, the beam model's ``z_short``), when
+    cast from the pose believed just before the scan (the last estimate moved by odometry). A pose is lost when
+    the spread exceeds ``lost_spread`` for ``lost_after`` updates in a row or the mean score of the last
+    ``lost_after`` updates falls below ``lost_score`` (a filter that is wrong soon finds a pose that explains one
+    wall, so its scores jump; their mean does not). It is found again after ``found_after`` updates in a row
+    within ``lost_spread`` whose mean share of beams on the map (no credit for short ones) is at least
+    ``found_score``: 12 updates of ``update_min_a`` are a full turn on the spot, and the camera-like laser sees
+    only 58 degrees at a time.
     """
 
     min_particles: int = 100
@@ -90,6 +106,14 @@ class AmclParams:
     initial_sigma_xy: float = 0.1
     initial_sigma_yaw: float = 0.05
     event_period: float = 10.0
+    lost_spread: float = 0.5
+    lost_score: float = 0.6
+    score_distance: float = 0.2
+    lost_after: int = 3
+    found_after: int = 12
+    found_score: float = 0.7
+    global_particles: int = 5000
+    short_margin: float = 0.3
 
     def __post_init__(self) -> None:
         if not 1 <= self.min_particles <= self.max_particles:
@@ -98,11 +122,39 @@ class AmclParams:
         if self.max_beams < 2:
             raise ValueError(f"max_beams must be at least 2, got {self.max_beams}")
         for name in ("kld_err", "kld_z", "bin_xy", "bin_yaw", "sigma_hit", "likelihood_max_dist", "cluster_radius",
-                     "event_period", "update_min_d", "update_min_a"):
+                     "event_period", "update_min_d", "update_min_a", "lost_spread", "score_distance"):
             if not getattr(self, name) > 0:
                 raise ValueError(f"{name} must be positive, got {getattr(self, name)}")
         if not 0 < self.beam_skip_distance < self.likelihood_max_dist:
             raise ValueError(f"beam_skip_distance must be in (0, likelihood_max_dist), got {self.beam_skip_distance}")
+        if not 0 <= self.lost_score <= self.found_score <= 1:
+            raise ValueError(f"need 0 <= lost_score <= found_score <= 1, got {self.lost_score}, {self.found_score}")
+        if self.lost_after < 1 or self.found_after < 1:
+            raise ValueError(f"lost_after and found_after must be at least 1, got {self.lost_after}, "
+                             f"{self.found_after}")
+
+
+@dataclass(frozen=True)
+class Confidence:
+    """How sure the filter is after an update: the cloud's ``spread`` (m), the ``score`` (share of beams
+    landing on mapped obstacles from the pose believed before the scan, 0..1) and ``likelihood``, the mean
+    log-likelihood per beam at the new estimate. ``on_map`` is the stricter share that gives short beams no
+    credit: losing a pose is judged leniently (a box in front of a wall is no sign of a wrong pose), finding
+    it strictly (from a wrong pose many beams also end short of where the map has a wall)."""
+
+    spread: float = 0.0
+    score: float = 1.0
+    likelihood: float = 0.0
+    beams: int = 0
+    on_map: float = 1.0
+
+    def problem(self, params: AmclParams) -> str:
+        """Why this confidence is below the declared bound, or "" when it is not."""
+        if self.spread > params.lost_spread:
+            return f"particle spread {self.spread:.2f} m > {params.lost_spread:g} m"
+        if self.beams and self.score < params.lost_score:
+            return f"only {self.score:.0%} of beams on the map (< {params.lost_score:.0%})"
+        return ""
 
 
 def compose(a: Pose2D, b: Pose2D) -> Pose2D:
@@ -161,6 +213,7 @@ class ParticleFilter:
         self._table = np.zeros(0)
         self._rand = 0.0
         self.skipped_beams = 0
+        self.short_beams = 0
         self._beam_key: tuple[int, float, float] | None = None
         self._beam_idx = np.zeros(0, np.intp)
         self._beam_angles = np.zeros(0)
@@ -273,7 +326,7 @@ class ParticleFilter:
         flat += ex.astype(np.int32)
         return table.take(flat)
 
-    def weigh(self, scan: LaserScan) -> int:
+    def weigh(self, scan: LaserScan, expected: LaserScan | None = None) -> int:
         """Multiply the weights by the scan's likelihood; returns the number of beams used.
 
         With ``beam_skip`` (amcl's ``do_beamskip``), a beam is left out when its end point lies within
@@ -283,6 +336,12 @@ class ParticleFilter:
         twice the cloud's spread when that is wider, so that a cloud still converging keeps the beams it
         converges on. When nearly all beams would go, the cloud is lost rather than the beams wrong, and
         all are kept (as amcl does).
+
+        ``expected`` (the same beams cast on the map from the pose believed before the scan) adds the beam
+        model's ``z_short``: a beam ending more than ``short_margin`` before the mapped wall it points at has
+        hit something in front of it that the map lacks, and is left out. Beside a row of pillars an unmapped
+        box is near some pillar for a cloud shifted by a pillar pitch, so the share test above keeps its beams
+        and they drag the estimate; the short test does not depend on the cloud.
         """
         per_beam = self.beam_log_likelihoods(scan, self.x, self.y, self.yaw)
         used = per_beam.shape[1]
@@ -290,6 +349,19 @@ class ParticleFilter:
             return 0
         p = self.params
         self.skipped_beams = 0
+        self.short_beams = 0
+        # Only for a cloud narrower than the margin: from a wide cloud (a guess, a re-seed) the believed pose says
+        # too little about where the walls are, and the beams that disagree with it are the ones that correct it.
+        if (expected is not None and p.short_margin > 0 and len(expected.ranges) == len(scan.ranges)
+                and self.spread() < p.short_margin):
+            ranges = scan.ranges[self._beam_idx]
+            valid = (ranges >= scan.range_min) & (ranges < scan.range_max)
+            short = ranges[valid] < expected.ranges[self._beam_idx][valid] - p.short_margin
+            n_short = int(np.count_nonzero(short))
+            if 0 < n_short < p.beam_skip_error_threshold * used:
+                per_beam = per_beam[:, ~short]
+                used -= n_short
+                self.short_beams = n_short
         if p.beam_skip:
             mx, my = float(np.dot(self.w, self.x)), float(np.dot(self.w, self.y))
             spread = math.sqrt(max(0.0, float(np.dot(self.w, self.x * self.x + self.y * self.y)) - mx * mx - my * my))
@@ -312,6 +384,57 @@ class ParticleFilter:
         total = w.sum()
         self.w = w / total if total > 0 and math.isfinite(total) else np.full(self.count, 1.0 / self.count)
         return used
+
+    def spread(self) -> float:
+        """Root of the trace of the weighted position covariance (metres): how wide the cloud is."""
+        mx, my = float(np.dot(self.w, self.x)), float(np.dot(self.w, self.y))
+        return math.sqrt(max(0.0, float(np.dot(self.w, self.x * self.x + self.y * self.y)) - mx * mx - my * my))
+
+    def score(self, scan: LaserScan, pose: Pose2D, expected: LaserScan | None = None
+              ) -> tuple[float, float, float, int]:
+        """(share of beams explained, share on the map, mean log-likelihood per beam, beams) for the scan seen
+        from ``pose``.
+
+        A beam is explained when it ends within ``score_distance`` of a mapped obstacle, or, given ``expected``
+        (the same beams cast on the map from ``pose``), when it ends more than ``score_distance`` short of the
+        mapped wall: the beam model's ``z_short`` part, something the map lacks (a box, a walker) in front of
+        a wall that is where the map says; at most as many short beams are explained as land on the map. A
+        beam that goes on through a mapped wall is never explained.
+        """
+        row = self.beam_log_likelihoods(scan, np.array([pose.x]), np.array([pose.y]), np.array([pose.yaw]))[0]
+        if len(row) == 0:
+            return 1.0, 1.0, 0.0, 0
+        p = self.params
+        d = p.score_distance
+        near_log = math.log(p.z_hit * math.exp(-d * d / (2.0 * p.sigma_hit ** 2)) + self._rand)
+        on_map = row >= near_log
+        explained = on_map.copy()
+        if expected is not None and len(expected.ranges) == len(scan.ranges):
+            ranges = scan.ranges[self._beam_idx]
+            keep = (ranges >= scan.range_min) & (ranges < scan.range_max)
+            explained |= ranges[keep] < expected.ranges[self._beam_idx][keep] - d
+        n = len(row)
+        hits = int(np.count_nonzero(on_map))
+        # Something unmapped hides some walls, not most: short beams are credited up to as many as land on the
+        # map. A robot carried off to a cramped place sees every wall nearer than the map says; that is no box.
+        short = min(int(np.count_nonzero(explained)) - hits, hits)
+        return (hits + short) / n, hits / n, float(row.mean()), n
+
+    def seed_free_space(self, count: int, clearance: float = 0.15) -> None:
+        """Particles spread evenly over the map's free cells at least ``clearance`` from obstacles, with any
+        heading: the global re-seed of augmented MCL, when no guess of the pose is left."""
+        rows, cols = np.nonzero(self.field.dist >= clearance)
+        if len(rows) == 0:
+            raise ValueError("the map has no free cell to seed particles in")
+        pick = self.rng.integers(0, len(rows), count)
+        gx = cols[pick] - 1 + self.rng.random(count)  # the field's grid has one ring more than the map's
+        gy = rows[pick] - 1 + self.rng.random(count)
+        m = self.field.map
+        u, v = gx * self._res, gy * self._res
+        self.x = m.origin.x + u * self._c0 - v * self._s0
+        self.y = m.origin.y + u * self._s0 + v * self._c0
+        self.yaw = self.rng.uniform(-math.pi, math.pi, count)
+        self.w = np.full(count, 1.0 / count)
 
     @property
     def effective_count(self) -> float:
@@ -407,6 +530,10 @@ class Localizer:
         self._now = now or (lambda: 0.0)
         self._event_period = event_period
         self._next_event = 0.0
+        self.truth = start
+        self.lost = False
+        self.lost_count = 0
+        self.confidence = Confidence()
         if events is not None:
             events.subscribe(self._on_event)
 
@@ -419,6 +546,7 @@ class Localizer:
 
     def _measured(self, truth: Pose2D) -> None:
         """Book the new estimate's error and write the periodic event when it is due."""
+        self.truth = truth
         self.errors.record(self.estimate, truth)
         if self._events is not None and self._now() >= self._next_event:
             self._next_event = self._now() + self._event_period
@@ -430,11 +558,29 @@ class Localizer:
         e = self.estimate
         self._events.emit("localization", mode=self.mode, cause=cause, x=round(e.x, 4), y=round(e.y, 4),
                           yaw=round(e.yaw, 4), error=round(self.errors.last, 4),
-                          yaw_error=round(self.errors.last_yaw, 4), particles=self.particles, updates=self.updates)
+                          yaw_error=round(self.errors.last_yaw, 4), particles=self.particles, updates=self.updates,
+                          **self.pose_fields())
+
+    def pose_fields(self) -> dict[str, Any]:
+        """The believed and the true pose and the confidence, as event fields: ``believed`` and ``true`` are
+        {x, y, yaw} in the map frame, ``spread`` (m) and ``score`` (0..1) the filter's confidence, ``lost``
+        whether navigation currently distrusts the estimate."""
+        c = self.confidence
+        return {"believed": _rounded(self.estimate), "true": _rounded(self.truth), "spread": round(c.spread, 4),
+                "score": round(c.score, 3), "lost": self.lost}
 
     def _on_event(self, event: Event) -> None:
         if event["type"] == "goal_result":
             self._emit("goal_result")
+            if event.get("status") == "ABORTED":
+                self._doubt()
+
+    def _doubt(self) -> None:
+        """A goal was aborted: a localizer that can look again does (see :meth:`Amcl._doubt`)."""
+
+
+def _rounded(pose: Pose2D) -> dict[str, float]:
+    return {"x": round(pose.x, 4), "y": round(pose.y, 4), "yaw": round(pose.yaw, 4)}
 
 
 class OdometryLocalizer(Localizer):
@@ -472,6 +618,13 @@ class Amcl(Localizer):
         self._first = True  # amcl weighs the first scan whether or not the robot has moved
         self.resamples = 0
         self.beams_used = 0
+        self._bad = 0
+        self._good = 0
+        self._scores: list[float] = []
+        self._found_scores: list[float] = []
+        self._strict_next = False
+        self.regained_count = 0
+        self.last_good = self.estimate  # the last estimate the filter trusted: where a local re-seed starts
 
     @property
     def particles(self) -> int:
@@ -481,6 +634,14 @@ class Amcl(Localizer):
         """Start the cloud afresh around ``pose`` (amcl's ``initialpose``, rviz's "2D Pose Estimate");
         the next step weighs a scan whether or not the robot moves."""
         self.filter.initialize(pose, sigma_xy, sigma_yaw)
+        self._restart()
+
+    def seed_free_space(self, count: int | None = None) -> None:
+        """Spread the cloud over the whole free map (global localisation); the next step weighs a scan."""
+        self.filter.seed_free_space(count or self.params.global_particles)
+        self._restart()
+
+    def _restart(self) -> None:
         self.estimate = self.filter.estimate()
         self._map_odom = compose(self.estimate, inverse(self._odom))
         self._odom_at_update = self._odom
@@ -488,6 +649,7 @@ class Amcl(Localizer):
 
     def step(self, odom: Pose2D, truth: Pose2D) -> None:
         self._odom = odom
+        self.truth = truth
         last, p = self._odom_at_update, self.params
         dx, dy = odom.x - last.x, odom.y - last.y
         if (self._first or dx * dx + dy * dy >= p.update_min_d * p.update_min_d
@@ -499,17 +661,74 @@ class Amcl(Localizer):
     def update(self, odom: Pose2D) -> None:
         """One filter update at odometry pose ``odom``: predict, weigh with a fresh scan, resample."""
         pf = self.filter
+        believed = compose(self._map_odom, odom)  # where the robot believed it was before this scan
         if not self._first:
             pf.predict(self._odom_at_update, odom)
         self._first = False
-        self.beams_used = pf.weigh(self._scan(self._laser))
+        scan = self._scan(self._laser)
+        expected = cast_scan(pf.field, believed, replace(self._laser, noise=0.0))
+        self.beams_used = pf.weigh(scan, expected)
         estimate = pf.estimate()  # from the weighted cloud: resampling would only add sampling noise
+        # The score is judged at the pose believed before the scan, not at the new estimate: after weighing, the
+        # best-fitting particles always explain one wall of a 58 degree view, right or wrong.
+        score, on_map, _, beams = pf.score(scan, believed, expected)
+        likelihood = pf.score(scan, estimate)[2]
+        self.confidence = Confidence(pf.spread(), score, likelihood, beams, on_map)
+        self.estimate = estimate
+        self._judge()
         if pf.effective_count < self.params.resample_threshold * pf.count:
             pf.resample()
             self.resamples += 1
         self.updates += 1
         self._map_odom = compose(estimate, inverse(odom))
         self._odom_at_update = odom
+
+
+    def _doubt(self) -> None:
+        """An aborted goal ("no path", "start is in an obstacle") is what a wrong pose looks like to move_base,
+        and a robot that no longer moves gets no filter update. Weigh a fresh scan at once, and judge it
+        strictly: without credit for short beams, which from a wrong pose are walls where the map has none."""
+        self._first = True
+        self._strict_next = True
+
+    def _judge(self) -> None:
+        """Raise ``localization_lost`` when the spread stays too wide for ``lost_after`` updates or the mean score
+        of the last ``lost_after`` updates is too low; ``localization_regained`` after ``found_after`` updates in a
+        row within ``lost_spread`` whose mean score reaches ``found_score``."""
+        p, c = self.params, self.confidence
+        if c.beams:  # a scan with no return says nothing about the map
+            self._scores = [*self._scores[1 - p.lost_after:], c.score]
+        if self.lost:
+            self._found_scores = [*self._found_scores[1 - p.found_after:], c.on_map] if c.beams else self._found_scores
+            self._good = 0 if c.spread > p.lost_spread else self._good + 1
+            found = sum(self._found_scores) / len(self._found_scores) if self._found_scores else 0.0
+            if self._good >= p.found_after and found >= p.found_score:
+                self.lost = False
+                self.regained_count += 1
+                self._scores = []
+                self.last_good = self.estimate
+                log.info("localization regained")
+                if self._events is not None:
+                    self._events.emit("localization_regained", **self.pose_fields())
+            return
+        self._bad = self._bad + 1 if c.spread > p.lost_spread else 0
+        mean = sum(self._scores) / len(self._scores) if len(self._scores) == p.lost_after else 1.0
+        problem = c.problem(p) if self._bad >= p.lost_after else ""
+        strict, self._strict_next = self._strict_next, False
+        if not problem and strict and c.beams and c.on_map < p.lost_score:
+            problem = f"a goal was aborted and only {c.on_map:.0%} of beams are on the map (< {p.lost_score:.0%})"
+        if not problem and mean < p.lost_score:
+            problem = f"only {mean:.0%} of beams on the map over the last {p.lost_after} updates (< {p.lost_score:.0%})"
+        if not problem:
+            self.last_good = self.estimate
+            return
+        self.lost = True
+        self.lost_count += 1
+        self._good = 0
+        self._found_scores = []
+        log.info("localization lost: %s", problem)
+        if self._events is not None:
+            self._events.emit("localization_lost", reason=problem, **self.pose_fields())
 
 
 def make_localizer(mode: str, *, field: ObstacleField, start: Pose2D, scan: ScanSource, laser: LaserParams,

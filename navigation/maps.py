@@ -42,12 +42,16 @@ FREE = 0
 OCCUPIED = 100
 UNKNOWN = -1
 MODES = ("trinary", "scale", "raw")
-#: A map YAML is a few lines; a megabyte leaves room for comments and never for a bomb.
-MAP_YAML_LIMITS = YAMLLimits(max_bytes=1024 * 1024, max_depth=8)
+#: A map YAML is a few lines; 64 KiB leaves room for comments and never for a bomb, nor for a megabyte of
+#: keys other tools added, which are passed unread.
+MAP_YAML_LIMITS = YAMLLimits(max_bytes=64 * 1024, max_depth=8)
 #: Sane bounds of the numbers in a map YAML: a cell of up to a kilometre, an origin within a thousand
 #: kilometres, a yaw within a few turns. Beyond them a value is a typo or an attack, and the arithmetic of
 #: every conversion would lose its precision.
 MAX_RESOLUTION = 1000.0
+#: The finest cell: a tenth of a millimetre. Below it (``1.0e-300``) the whole map shrinks to a point, every
+#: pose is off it, and the patrol could only say that its start pose is not on the map.
+MIN_RESOLUTION = 1e-4
 MAX_COORDINATE = 1e6
 MAX_YAW = 100.0
 
@@ -58,6 +62,12 @@ MapError = DocumentError
 
 def _negate_rule(value: Any) -> str | None:
     return None if value in (0, 1) else "expected 0 or 1"
+
+
+def _resolution_rule(value: float) -> str | None:
+    if value < MIN_RESOLUTION:
+        return f"cells finer than {MIN_RESOLUTION:g} m shrink the map to a point (metres per cell, e.g. 0.05)"
+    return None
 
 
 def _mode_rule(value: str) -> str | None:
@@ -71,7 +81,8 @@ def _coordinate(name: str, bound: float, unit: str) -> Value:
 #: What a map YAML holds (keys other tools add pass unread, so maps made for ROS load unchanged).
 MAP_FIELDS = Record({
     "image": FilePath(required=True, doc="the map image, PGM, PNG or BMP"),
-    "resolution": Value(Float(0.05, "metres per cell", min=0.0, min_open=True, max=MAX_RESOLUTION), required=True),
+    "resolution": Value(Float(0.05, "metres per cell", min=0.0, min_open=True, max=MAX_RESOLUTION), required=True,
+                        check=_resolution_rule),
     "origin": Vector([_coordinate("x", MAX_COORDINATE, "m"), _coordinate("y", MAX_COORDINATE, "m"),
                       _coordinate("yaw", MAX_YAW, "rad")], ("x", "y", "yaw"), required=True,
                      doc="pose of the lower-left corner"),
@@ -156,10 +167,11 @@ class OccupancyMap:
         return yaw - self.origin.yaw
 
     def to_image(self) -> np.ndarray:
-        """A grey picture in image order (top row first): free white, occupied black, unknown grey."""
-        d = self.data.astype(np.int16)
-        img = np.where(d < 0, 205, 254 - np.clip(d, 0, 100) * 254 // 100).astype(np.uint8)
-        return np.ascontiguousarray(img[::-1])
+        """A grey picture in image order (top row first): free white, occupied black, unknown grey (a table of
+        the 256 int8 values, so a map at the cell limit costs its picture only)."""
+        values = np.arange(256, dtype=np.uint8).view(np.int8).astype(np.int16)
+        table = np.where(values < 0, 205, 254 - np.clip(values, 0, 100) * 254 // 100).astype(np.uint8)
+        return np.ascontiguousarray(table[self.data.view(np.uint8)][::-1])
 
 
 def load_map_metadata(yaml_path: str | Path) -> MapMetadata:
@@ -243,22 +255,54 @@ def occupancy_from_pixels(pixels: np.ndarray, meta: MapMetadata, max_value: floa
     Follows nav2 ``map_io``: the shade is the mean of R, G, B (plus alpha in trinary mode when the
     image has one) over the sample range (``max_value``: the PGM's maxval, else the dtype's maximum),
     ``occ = 1 - shade`` unless negated, then the mode decides.
+
+    Integer images (every PGM, PNG and BMP) go through a table of the occupancy of every possible channel sum,
+    so that a map at the cell limit costs its int8 grid and one integer sum, not a handful of float64 copies
+    of the image (2 GB for 5000x5000 cells); the table holds exactly the values the float formula gives.
     """
     if max_value is None:
         max_value = float(np.iinfo(pixels.dtype).max) if pixels.dtype.kind in "ui" else 1.0
-    img = pixels.astype(np.float64)
-    alpha = None
-    if img.ndim == 2:
-        channels = [img] * 3
-    elif img.shape[2] <= 2:  # grey, or grey + alpha
-        channels = [img[:, :, 0]] * 3
-        alpha = img[:, :, 1] if img.shape[2] == 2 else None
+    channels, alpha = _shade_channels(pixels, meta)
+    if pixels.dtype.kind in "ui" and pixels.dtype.itemsize <= 2:
+        distinct = list({id(c): c for c in channels}.values())
+        repeats = [sum(c is d for c in channels) for d in distinct]
+        if len(distinct) == 1:  # grey: the table is indexed by the sample itself
+            index = distinct[0]
+            totals = np.arange(int(np.iinfo(pixels.dtype).max) + 1, dtype=np.float64) * repeats[0]
+        else:
+            index = np.zeros(pixels.shape[:2], dtype=np.int32)
+            for channel, times in zip(distinct, repeats, strict=True):
+                index += channel.astype(np.int32) * times if times != 1 else channel
+            top = int(np.iinfo(pixels.dtype).max) * len(channels)
+            totals = np.arange(top + 1, dtype=np.float64)
+        table = _occupancy_of_shade(totals / (len(channels) * max_value), meta)
+        out = table[index]
     else:
-        channels = [img[:, :, k] for k in range(3)]
-        alpha = img[:, :, 3] if img.shape[2] == 4 else None
+        shade = sum(c.astype(np.float64) for c in channels) / (len(channels) * max_value)
+        out = _occupancy_of_shade(shade, meta)
+    if meta.mode == "scale" and alpha is not None:
+        out[alpha < max_value] = UNKNOWN
+    return out
+
+
+def _shade_channels(pixels: np.ndarray, meta: MapMetadata) -> tuple[list[np.ndarray], np.ndarray | None]:
+    """The channels whose mean is the shade (views of ``pixels``, a grey image three times) and the alpha."""
+    alpha = None
+    if pixels.ndim == 2:
+        channels = [pixels] * 3
+    elif pixels.shape[2] <= 2:  # grey, or grey + alpha
+        channels = [pixels[:, :, 0]] * 3
+        alpha = pixels[:, :, 1] if pixels.shape[2] == 2 else None
+    else:
+        channels = [pixels[:, :, k] for k in range(3)]
+        alpha = pixels[:, :, 3] if pixels.shape[2] == 4 else None
     if meta.mode == "trinary" and alpha is not None:
         channels = [*channels, alpha]
-    shade = sum(channels) / (len(channels) * max_value)
+    return channels, alpha
+
+
+def _occupancy_of_shade(shade: np.ndarray, meta: MapMetadata) -> np.ndarray:
+    """Occupancy values (int8) of shades in 0..1, by the map's mode and thresholds (alpha aside)."""
     occ = shade if meta.negate else 1.0 - shade
     out = np.full(shade.shape, UNKNOWN, dtype=np.int8)
     if meta.mode == "raw":
@@ -276,8 +320,6 @@ def occupancy_from_pixels(pixels: np.ndarray, meta: MapMetadata, max_value: floa
         if span > 0:
             scaled = np.rint((occ - meta.free_thresh) / span * 100.0)
             out[middle] = np.clip(scaled[middle], 0, 100).astype(np.int8)
-        if alpha is not None:
-            out[alpha < max_value] = UNKNOWN
     return out
 
 

@@ -46,7 +46,7 @@ RECOVERY_BEHAVIOURS = ("clear_costmap", "rotate", "back_up")
 KEPT_PLANS = 100
 
 # Plan failures no recovery behaviour can help with: the goal is aborted at once.
-_HOPELESS = ("goal is in an obstacle", "goal is outside", "start is outside")
+_HOPELESS = ("goal is in an obstacle", "goal is outside", "start is outside", "goal is in a keepout zone")
 
 
 class GoalStatus(enum.Enum):
@@ -75,6 +75,17 @@ class MoveBaseParams:
     A blocked way first stops the robot for ``look_time`` seconds of scans: if the way clears, it drives on;
     if meanwhile something seen before has gone (cells cleared: what blocks the way is moving), it waits
     up to ``yield_time`` seconds for it to pass; otherwise, or then, it plans round what is marked.
+
+    A collision-monitor style guard works beside that: while the robot drives forward it reads the laser into
+    the costmap (counted apart, in ``LocalCostmap.monitor_scans``) every step while something marked is within
+    the marking range, else every quarter of the update distance, so what comes towards it is seen at once,
+    not at the next scheduled scan; the speed is capped so
+    that the robot can stop ``stop_gap`` metres short of the first marked cell its swept footprint would touch
+    (braking at half ``linear_accel``, and no faster than ``max_linear`` times the free distance over
+    ``slow_distance``), a marked cell ahead of the robot (in front of its axle) within ``slow_zone`` metres of
+    its body holds it to ``slow_speed``, rising to full speed ``slow_distance`` farther out (a slowdown zone:
+    passing a person close by happens at a walk), and the
+    robot never moves off from a standstill without a fresh scan.
     """
 
     stuck_timeout: float = 10.0
@@ -90,6 +101,10 @@ class MoveBaseParams:
     safety_time: float = 0.5
     look_time: float = 1.0
     yield_time: float = 5.0
+    slow_distance: float = 1.0
+    stop_gap: float = 0.05
+    slow_zone: float = 0.3
+    slow_speed: float = 0.2
     local_costmap: LocalCostmapParams = field(default_factory=LocalCostmapParams)
 
     def __post_init__(self) -> None:
@@ -147,6 +162,8 @@ class MoveBase:
         self.clock = clock
         self.events = events
         self.follower_params = follower_params or FollowerParams()
+        # Speed zones' cap on each command (navigation.costmap_filters.SpeedZones.cap), set by whoever builds it.
+        self.speed_limit: Callable[[Pose2D, float, float, float], tuple[float, float]] | None = None
         self.params = params or MoveBaseParams()
         self._pose_source = pose_source
         self.scan_source = scan_source
@@ -169,6 +186,10 @@ class MoveBase:
         self._wait_start = 0.0
         self._wait_moving = False  # something near has moved since the wait began
         self._avoid_planner: tuple[int, Planner] | None = None
+        self._last_v = 0.0  # the last linear command: zero means the next forward one moves off from a standstill
+        self._monitor_pose: Pose2D | None = None  # where the guard last read the laser
+        self.slowed = 0  # steps the guard capped the speed
+        self.guard_stops = 0  # steps the guard stopped the robot short of a marked cell
         self.counts = {s: 0 for s in (GoalStatus.SUCCEEDED, GoalStatus.ABORTED, GoalStatus.PREEMPTED)}
 
     def use_laser(self, scan: Callable[[LaserParams], LaserScan], laser: LaserParams) -> None:
@@ -263,6 +284,8 @@ class MoveBase:
             plan = self._planner_round_obstacles().plan(start, goal.pose, tolerance)
             if not plan.ok and plan.reason.startswith("goal is in an obstacle"):
                 plan.reason = "goal is blocked by an obstacle the map does not show"
+            elif not plan.ok and plan.reason.startswith("start is in an obstacle"):
+                plan.reason = "the robot is hemmed in by obstacles the map does not show"
             elif not plan.ok and plan.reason.startswith("no path"):
                 plan.reason = "no path round the obstacles the map does not show"
         self.last_plan = plan
@@ -275,6 +298,11 @@ class MoveBase:
             self._reset_progress(self.follower.to_go, restart_clock)
         elif plan.reason.startswith(_HOPELESS):
             self._finish(GoalStatus.ABORTED, plan.reason)
+        elif avoiding and self.clock.now < self._fast_until and not self._stuck():
+            # What closes the way has just moved (a person): watch it as a blocked way rather than recover, within
+            # the no-progress time (the clock keeps running, so this cannot go on for ever).
+            self.follower = None
+            self._waiting, self._wait_start, self._wait_moving = True, self.clock.now, True
         else:
             self.follower = None
             self._recover(plan.reason)
@@ -295,9 +323,11 @@ class MoveBase:
                     log.debug("goal %d: nothing to clear, clear_costmap skipped", goal.id)
                     continue
                 self._recoveries += 1
-                cleared = self.costmap.clear()
+                # Forget only what the laser does not see now: a walker still standing there stays marked.
+                scan = self.scan_source() if self.scan_source is not None else None
+                cleared = self.costmap.clear(pose, scan)
                 self.events.emit("recovery", goal_id=goal.id, attempt=self._recoveries, reason=why,
-                                 behaviour=name, cleared=cleared)
+                                 behaviour=name, cleared=cleared, kept=len(self.costmap))
                 self._plan()  # instantaneous: plan again at once
                 return
             if name == "rotate":
@@ -374,7 +404,7 @@ class MoveBase:
             ahead = np.vstack([[pose.x, pose.y], self.follower.ahead()])
             hit = self.costmap.blocking(ahead, self._clearance(), 0.5 * self.costmap.params.window)
         if hit is None:
-            if self._waiting:
+            if self._waiting and self.follower is not None:  # without a path, only a new plan ends the wait
                 self._end_wait()
         elif not self._waiting:
             self._blocked(hit)
@@ -405,6 +435,16 @@ class MoveBase:
         p = self.params
         return self.clock.now - self._wait_start >= (p.yield_time if self._wait_moving else p.look_time) - 1e-9
 
+    def _arc(self, pose: Pose2D, v: float, w: float, horizon: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Points every half cell along the arc (v, w) drives from ``pose`` for ``horizon`` metres: (s, x, y)."""
+        n = max(2, math.ceil(horizon / (0.5 * self.planner.field.resolution)) + 1)
+        s = np.linspace(0.0, horizon, n)
+        if abs(w) < 1e-6:
+            return s, pose.x + s * math.cos(pose.yaw), pose.y + s * math.sin(pose.yaw)
+        r = v / w
+        yaw = pose.yaw + s / r
+        return s, pose.x + r * (np.sin(yaw) - math.sin(pose.yaw)), pose.y - r * (np.cos(yaw) - math.cos(pose.yaw))
+
     def _motion_hit(self, pose: Pose2D, v: float, w: float, dt: float) -> tuple[float, float, float] | None:
         """Where the commanded arc of the next moments would bring the robot too close to a marked cell."""
         if v <= 0.0:
@@ -414,16 +454,7 @@ class MoveBase:
         cells = self.costmap.near(pose.x, pose.y, horizon + radius + self.planner.field.resolution)
         if not len(cells):
             return None
-        n = max(2, math.ceil(horizon / (0.5 * self.planner.field.resolution)) + 1)
-        s = np.linspace(0.0, horizon, n)
-        if abs(w) < 1e-6:
-            yaw = np.full(n, pose.yaw)
-            xs, ys = pose.x + s * math.cos(pose.yaw), pose.y + s * math.sin(pose.yaw)
-        else:
-            r = v / w
-            yaw = pose.yaw + s / r
-            xs = pose.x + r * (np.sin(yaw) - math.sin(pose.yaw))
-            ys = pose.y - r * (np.cos(yaw) - math.cos(pose.yaw))
+        s, xs, ys = self._arc(pose, v, w, horizon)
         d = self.costmap.distance(xs, ys, cells)
         closer = (d < radius) & (d < d[0] - 1e-6)  # moving away from something already close is fine
         if not closer.any():
@@ -434,6 +465,13 @@ class MoveBase:
     # -- control ------------------------------------------------------------------------------------
     def control(self, pose: Pose2D, dt: float) -> tuple[float, float]:
         """Velocity command for this step (zero when idle)."""
+        v, w = self._control(pose, dt)
+        if self.speed_limit is not None:
+            v, w = self.speed_limit(pose, v, w, dt)
+        self._last_v = v
+        return v, w
+
+    def _control(self, pose: Pose2D, dt: float) -> tuple[float, float]:
         if not self.active:
             return 0.0, 0.0
         sensing = self.scan_source is not None
@@ -462,6 +500,22 @@ class MoveBase:
             self._check_way(pose)
             if self._waiting or self.follower is None or not self.active:
                 return 0.0, 0.0
+        looked = False
+        if sensing and v > 0.0 and self._scan_time < self.clock.now - 1e-9:
+            if self._last_v <= 0.0:
+                looked = self._sense(pose, True, force=True)  # moving off: a full look first
+            elif self._monitor_due(pose):
+                assert self.scan_source is not None
+                self._monitor_pose = pose
+                # the collision monitor's sensor rate
+                self.costmap.update(pose, self.scan_source(), monitor=True)
+                looked = True
+        if looked:
+            self._check_way(pose)
+            if self._waiting or self.follower is None or not self.active:
+                return 0.0, 0.0
+        if not self.costmap.empty and v > 0.0:
+            v = self._guard_speed(pose, v, w, dt)
         if not self.costmap.empty:
             hit = self._motion_hit(pose, v, w, dt)
             if hit is not None:
@@ -478,6 +532,60 @@ class MoveBase:
             self._recover(f"no progress for {self.params.stuck_timeout:g} s")
             return 0.0, 0.0
         return v, w
+
+    def _guard_speed(self, pose: Pose2D, v: float, w: float, dt: float) -> float:
+        """``v`` capped so the robot can stop ``stop_gap`` short of the first marked cell its sweep would touch,
+        and slowed towards ``slow_speed`` as a marked cell ahead comes within ``slow_zone`` of its body."""
+        p = self.params
+        horizon = max(p.slow_distance, v * dt + v * v / self.follower_params.linear_accel)
+        free = self._free_along(pose, v, w, horizon)
+        near = self._nearest_ahead(pose)
+        top = self.follower_params.max_linear
+        cap = p.slow_speed + (top - p.slow_speed) * min(1.0, max(0.0, near - p.slow_zone) / p.slow_distance)
+        if free < horizon:
+            room = max(0.0, free - p.stop_gap)
+            cap = min(cap, math.sqrt(self.follower_params.linear_accel * room),
+                      self.follower_params.max_linear * room / p.slow_distance, room / dt)
+        if cap < v:
+            self.slowed += 1
+            if cap <= 1e-3:
+                self.guard_stops += 1
+                return 0.0
+            return cap
+        return v
+
+    def _monitor_due(self, pose: Pose2D) -> bool:
+        """Whether the guard reads the laser now: every step while a mark lies within the marking range, else
+        after a quarter of the costmap's update distance (what walks in then is seen 2 m off, not 0.5 m)."""
+        c = self.costmap.params
+        if self._monitor_pose is None or len(self.costmap.near(pose.x, pose.y, c.obstacle_range)):
+            return True
+        return pose.distance_to(self._monitor_pose) * c.fast_rate >= c.update_distance
+
+    def _nearest_ahead(self, pose: Pose2D) -> float:
+        """Distance from the robot's body to the nearest marked cell in front of its axle (inf when none near)."""
+        reach = self.planner.params.robot_radius + self.params.slow_zone + 1.0
+        cells = self.costmap.near(pose.x, pose.y, reach)
+        if not len(cells):
+            return math.inf
+        dx, dy = cells[:, 0] - pose.x, cells[:, 1] - pose.y
+        ahead = dx * math.cos(pose.yaw) + dy * math.sin(pose.yaw) > 0.0
+        if not ahead.any():
+            return math.inf
+        d = np.hypot(dx[ahead], dy[ahead]) - 0.5 * self.planner.field.resolution
+        return float(d.min()) - self.planner.params.robot_radius
+
+    def _free_along(self, pose: Pose2D, v: float, w: float, horizon: float) -> float:
+        """How far the robot can go along the arc of (v, w) before its disc (plus ``safety_margin``) touches a
+        marked cell it is not already moving away from; ``horizon`` when nothing is in reach."""
+        radius = self.planner.params.robot_radius + self.params.safety_margin
+        cells = self.costmap.near(pose.x, pose.y, horizon + radius + self.planner.field.resolution)
+        if not len(cells):
+            return horizon
+        s, xs, ys = self._arc(pose, v, w, horizon)
+        d = self.costmap.distance(xs, ys, cells)
+        closer = (d < radius) & (d < d[0] - 1e-6)
+        return float(s[int(np.argmax(closer))]) if closer.any() else horizon
 
     def _recovery_step(self, pose: Pose2D, dt: float) -> tuple[float, float]:
         b = self._behaviour

@@ -8,11 +8,18 @@ class only supplies what each state *does* when entered or left. Names and outco
   because leaving any region leaves the whole parallel state.
 * ``robot_battery_low`` goes to ``DOCK_AT_STATION`` (``MOVE_TO_STATION`` then ``DOCK``) when a station
   is known, else to ``SHUTDOWN``; ``laptop_battery_low`` and ``preempted`` go to ``SHUTDOWN``.
+* Monitors keep watching outside MONITORED_PATROL too (docking, charging, undocking, LOCALIZE): the laptop's
+  ``laptop_battery_low`` and an added monitor's outcomes lead to their states from there as well, so a laptop
+  that dies on the dock ends the run with that reason; an empty robot battery (not charging) ends the run from
+  any state as ``robot_battery_empty``. The run's reason (``end_reason``) names the battery.
 * ``DOCK_AT_STATION`` succeeds into ``WAIT_UNTIL_CHARGED``, any failure goes to ``SHUTDOWN``.
 * ``WAIT_UNTIL_CHARGED`` ends in ``SHUTDOWN`` when charged or preempted, or, with
   ``resume_after_charging``, goes through ``UNDOCK`` back to ``MONITORED_PATROL`` at the goal that was
   interrupted.
 * ``SHUTDOWN`` stops the robot; the machine's outcome is then ``shutdown``.
+* ``localization_lost`` (amcl no longer trusts its pose) leaves PATROL for ``LOCALIZE``, which stops, turns and
+  re-seeds the filter (:mod:`navigation.relocalize`); ``localized`` returns to MONITORED_PATROL at the goal that
+  was interrupted, ``aborted`` (no confident pose after every stage) goes to ``SHUTDOWN`` with the reason.
 
 States of your own are added without patching: tasks at the goal poses (:mod:`navigation.tasks`; each
 becomes ``POSE_i_<TASK>`` after ``POSE_i``) and monitor regions beside the battery monitors
@@ -28,6 +35,7 @@ from __future__ import annotations
 
 import copy
 import logging
+import math
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -37,6 +45,7 @@ from transitions.extensions.nesting import HierarchicalMachine, NestedState
 
 from .geometry import Pose2D
 from .move_base import GoalStatus
+from .relocalize import Relocalize
 from .robot_interface import PatrolRobot, TimerHandle
 from .task_runner import TaskRunner
 from .tasks import StateTask, Visit
@@ -56,10 +65,13 @@ DOCK = f"{DOCK_AT_STATION}{SEP}DOCK"
 WAIT_UNTIL_CHARGED = "WAIT_UNTIL_CHARGED"
 UNDOCK = "UNDOCK"
 SHUTDOWN = "SHUTDOWN"
+LOCALIZE = "LOCALIZE"
 #: Where a monitor's outcome may lead: the top-level states outside MONITORED_PATROL.
 MONITOR_DESTINATIONS = (DOCK_AT_STATION, WAIT_UNTIL_CHARGED, UNDOCK, SHUTDOWN)
 _BUILT_IN_TRIGGERS = ("start", "succeeded", "aborted", "preempted", "robot_battery_low", "laptop_battery_low",
-                      "charged")
+                      "robot_battery_empty", "charged", "localization_lost", "localized")
+#: The top-level states outside MONITORED_PATROL where the monitors keep watching (SHUTDOWN ends everything).
+OUTSIDE_STATES = (DOCK_AT_STATION, WAIT_UNTIL_CHARGED, UNDOCK, LOCALIZE)
 
 RESULT_TRIGGER = {GoalStatus.SUCCEEDED: "succeeded", GoalStatus.ABORTED: "aborted",
                   GoalStatus.PREEMPTED: "preempted"}
@@ -130,6 +142,7 @@ def patrol_states(n_poses: int, tasks: Sequence[Sequence[str]] = (), monitors: S
         ]},
         {"name": "WAIT_UNTIL_CHARGED", "on_enter": "start_wait_until_charged", "on_exit": "stop_wait"},
         {"name": "UNDOCK", "on_enter": "start_undock", "on_exit": "stop_action"},
+        {"name": "LOCALIZE", "on_enter": "start_localize", "on_exit": "stop_localize"},
         {"name": "SHUTDOWN", "on_enter": "shutdown", "final": True},
     ]
 
@@ -179,7 +192,11 @@ def patrol_transitions(n_poses: int, tasks: Sequence[Sequence[str]] = (), first_
         {"trigger": "robot_battery_low", "source": ROBOT_MONITOR, "dest": DOCK_AT_STATION,
          "conditions": "has_station"},
         {"trigger": "robot_battery_low", "source": ROBOT_MONITOR, "dest": SHUTDOWN},
-        {"trigger": "laptop_battery_low", "source": LAPTOP_MONITOR, "dest": SHUTDOWN},
+        *({"trigger": "laptop_battery_low", "source": s, "dest": SHUTDOWN} for s in (LAPTOP_MONITOR, *OUTSIDE_STATES)),
+        {"trigger": "robot_battery_low", "source": LOCALIZE, "dest": DOCK_AT_STATION, "conditions": "has_station"},
+        {"trigger": "robot_battery_low", "source": LOCALIZE, "dest": SHUTDOWN},
+        *({"trigger": "robot_battery_empty", "source": s, "dest": SHUTDOWN}
+          for s in (MONITORED_PATROL, *OUTSIDE_STATES)),
     ]
     for monitor in monitors:
         for trigger, dest in monitor.outcomes.items():
@@ -190,6 +207,7 @@ def patrol_transitions(n_poses: int, tasks: Sequence[Sequence[str]] = (), first_
                 raise ValueError(f"monitor {monitor.state}: outcome {trigger!r} leads to {dest!r}, which is not "
                                  f"one of {', '.join(MONITOR_DESTINATIONS)}")
             table.append({"trigger": trigger, "source": f"{MONITORED_PATROL}{SEP}{monitor.state}", "dest": dest})
+            table += [{"trigger": trigger, "source": s, "dest": dest} for s in OUTSIDE_STATES if s != dest]
     table += [
         {"trigger": "succeeded", "source": MOVE_TO_STATION, "dest": DOCK},
         {"trigger": "succeeded", "source": DOCK, "dest": WAIT_UNTIL_CHARGED},
@@ -199,6 +217,9 @@ def patrol_transitions(n_poses: int, tasks: Sequence[Sequence[str]] = (), first_
         {"trigger": ["charged", "preempted"], "source": WAIT_UNTIL_CHARGED, "dest": SHUTDOWN},
         {"trigger": "succeeded", "source": UNDOCK, "dest": MONITORED_PATROL, "before": "prepare_resume"},
         {"trigger": ["aborted", "preempted"], "source": UNDOCK, "dest": SHUTDOWN},
+        {"trigger": "localization_lost", "source": PATROL, "dest": LOCALIZE},
+        {"trigger": "localized", "source": LOCALIZE, "dest": MONITORED_PATROL, "before": "prepare_resume"},
+        {"trigger": ["aborted", "preempted"], "source": LOCALIZE, "dest": SHUTDOWN},
     ]
     # A list of triggers is shorthand for one transition per trigger, which is what transitions takes.
     return [{**t, "trigger": trig} for t in table
@@ -251,6 +272,7 @@ class PatrolMachine:
                  camera: Callable[[], Any] | None = None, output_dir: str | Path | None = None) -> None:
         if not goals:
             raise ValueError("a patrol needs at least one goal pose")
+        self.monitors = tuple(monitors)
         self.sim = sim
         self.goals = list(goals)
         self.station_pose = station_pose
@@ -274,12 +296,15 @@ class PatrolMachine:
         self._token = 0
         self._unsubscribe: Callable[[], None] | None = None
         self._laptop_timer: TimerHandle | None = None
+        self._power_timer: TimerHandle | None = None
         self._wait_timer: TimerHandle | None = None
+        self.end_reason = ""  # why the patrol ended by itself when that is not a preemption (LOCALIZE gave up)
+        self.relocalize = Relocalize(sim)  # type: ignore[arg-type]
         n = len(self.goals)
         suffixes = [[t.state for t in row] for row in tasks]
-        self.states_table = patrol_states(n, suffixes, monitors, first_pose)
-        self.transitions_table = patrol_transitions(n, suffixes, first_pose, stop_on_failure, monitors)
-        self.runner = TaskRunner(self, task_state_names(suffixes, n), tasks, monitors, PATROL + SEP,
+        self.states_table = patrol_states(n, suffixes, self.monitors, first_pose)
+        self.transitions_table = patrol_transitions(n, suffixes, first_pose, stop_on_failure, self.monitors)
+        self.runner = TaskRunner(self, task_state_names(suffixes, n), tasks, self.monitors, PATROL + SEP,
                                  MONITORED_PATROL + SEP)
         self.machine = _Machine(
             model=self, states=copy.deepcopy(self.states_table), transitions=copy.deepcopy(self.transitions_table),
@@ -313,6 +338,13 @@ class PatrolMachine:
         self.sim.events.emit(f"state_{what}", state=name)
         if what == "enter":
             self.runner.entered(name)
+        if name in OUTSIDE_STATES:  # the monitors keep watching here too (their regions are not active)
+            for monitor in self.monitors:
+                region = f"{MONITORED_PATROL}{SEP}{monitor.state}"
+                if what == "enter":
+                    self.runner.start(region)
+                else:
+                    self.runner.stop(region)
         if what == "enter":
             for listener in list(self.state_listeners):
                 listener(self)
@@ -374,7 +406,34 @@ class PatrolMachine:
     def begin(self) -> None:
         """Enter MONITORED_PATROL (the machine is created in transitions' implicit ``initial`` state)."""
         self.machine.get_state(PATROL).initial = pose_state(self.first_pose)
+        self.sim.events.subscribe(self._watch_localization)
+        self._power_timer = self.sim.clock.every(self.monitor_period, self._watch_power, first=0.0)
         self.trigger("start")  # type: ignore[attr-defined]
+
+    def _watch_power(self) -> None:
+        """In every state: a robot battery that is empty and not charging ends the run, named as such (its
+        motors stopped; move_base would otherwise abort the goal as "no progress"); outside MONITORED_PATROL,
+        where its region does not run, the laptop's battery is watched too (it can die on the dock), and in
+        LOCALIZE the robot's low battery too."""
+        if self.finished:
+            return
+        battery = self.sim.robot_battery
+        # A live robot's battery view has only the percentage: empty is 0 % there, and it is never charging.
+        empty = getattr(battery, "is_empty", battery.percentage <= 0.0)
+        if empty and not getattr(battery, "charging", False):
+            self.end_reason = "robot battery empty"
+            self.sim.events.emit("robot_battery", event="EMPTY", percentage=round(battery.percentage, 2),
+                                 state=self.entering)
+            self.trigger("robot_battery_empty")  # type: ignore[attr-defined]
+        elif self.sim.laptop_battery.is_low and any(s in OUTSIDE_STATES for s in self.active_states()):
+            self._laptop_low()
+        elif battery.is_low and LOCALIZE in self.active_states():  # lost and low: dock (or stop) as in PATROL
+            self.trigger("robot_battery_low")  # type: ignore[attr-defined]
+
+    def _laptop_low(self) -> None:
+        percent = math.floor(10.0 * self.sim.laptop_battery.percentage) / 10.0  # below the threshold, as shown
+        self.end_reason = f"laptop battery low ({percent:.1f} %, not charging)"
+        self.trigger("laptop_battery_low")  # type: ignore[attr-defined]
 
     def request_preempt(self, reason: str = "preempted") -> None:
         """What Ctrl-C does: cancel whatever runs; every state entered from now on ends as preempted."""
@@ -390,7 +449,7 @@ class PatrolMachine:
             self.sim.dock_action.cancel()
         elif self.sim.undock_action.active:
             self.sim.undock_action.cancel()
-        elif WAIT_UNTIL_CHARGED in active or any(s.startswith(PATROL + SEP) for s in active):
+        elif WAIT_UNTIL_CHARGED in active or LOCALIZE in active or any(s.startswith(PATROL + SEP) for s in active):
             self._fire("preempted")
 
     def _preempted_on_entry(self) -> bool:
@@ -478,20 +537,6 @@ class PatrolMachine:
             self._unsubscribe()
             self._unsubscribe = None
 
-    def start_laptop_battery_monitor(self, _event: Any) -> None:
-        def poll() -> None:
-            if self.sim.laptop_battery.is_low:
-                if self._laptop_timer is not None:
-                    self._laptop_timer.cancel()
-                self.trigger("laptop_battery_low")  # type: ignore[attr-defined]
-
-        self._laptop_timer = self.sim.clock.every(self.monitor_period, poll, first=0.0)
-
-    def stop_laptop_monitor(self, _event: Any) -> None:
-        if self._laptop_timer is not None:
-            self._laptop_timer.cancel()
-            self._laptop_timer = None
-
     # -- docking and charging ---------------------------------------------------------------------------
     def start_dock(self, _event: Any) -> None:
         if self._preempted_on_entry():
@@ -542,8 +587,52 @@ class PatrolMachine:
             self._wait_timer.cancel()
             self._wait_timer = None
 
+    # -- LOCALIZE -------------------------------------------------------------------------------------
+    def _watch_localization(self, ev: dict[str, Any]) -> None:
+        if ev["type"] == "localization_lost" and not self.finished:
+            self._fire("localization_lost")  # ignored outside PATROL: docking drives on the dock's own sensing
+
+    def start_localize(self, _event: Any) -> None:
+        self._resume_pose = self._current_pose
+        if self._preempted_on_entry():
+            return
+        self._token += 1
+        token = self._token
+
+        def deliver(status: GoalStatus, text: str) -> None:
+            if token != self._token:
+                return
+            if status == GoalStatus.SUCCEEDED:
+                self._fire("localized")
+            else:
+                self.end_reason = text
+                self._fire(RESULT_TRIGGER[status])
+
+        self.relocalize.start(deliver)
+
+    def stop_localize(self, _event: Any) -> None:
+        self._token += 1
+        self.relocalize.cancel()
+
     # -- SHUTDOWN -------------------------------------------------------------------------------------
+    def start_laptop_battery_monitor(self, _event: Any) -> None:
+        def poll() -> None:
+            if self.sim.laptop_battery.is_low:
+                if self._laptop_timer is not None:
+                    self._laptop_timer.cancel()
+                self._laptop_low()
+
+        self._laptop_timer = self.sim.clock.every(self.monitor_period, poll, first=0.0)
+
+    def stop_laptop_monitor(self, _event: Any) -> None:
+        if self._laptop_timer is not None:
+            self._laptop_timer.cancel()
+            self._laptop_timer = None
+
     def shutdown(self, _event: Any) -> None:
+        if self._power_timer is not None:
+            self._power_timer.cancel()
+            self._power_timer = None
         self.sim.halt()
         self.outcome = OUTCOME
         self.sim.events.emit("outcome", outcome=OUTCOME)

@@ -16,13 +16,14 @@ import heapq
 import logging
 import math
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import cv2
 import numpy as np
 
 from .costmap import ObstacleField, shared_list
 from .geometry import Pose2D
+from .passages import narrowest_passage
 
 log = logging.getLogger(__name__)
 
@@ -59,6 +60,10 @@ class PlannerParams:
     # A search that expands this many cells without reaching the goal gives up (a failed plan, not a hang);
     # a plan across Willow expands about a thousand.
     max_expansions: int = 1_000_000
+    # Cells of the map (its shape, row 0 at the bottom) the planner must never enter, like Nav2's keepout filter;
+    # they are inflated as obstacles are, so no part of the robot enters them. The simulator and the laser do
+    # not see them: only the plan keeps out. See :mod:`navigation.costmap_filters`.
+    keepout: np.ndarray | None = field(default=None, compare=False, repr=False)
 
 
 @dataclass
@@ -86,8 +91,15 @@ class Planner:
         self.params = params or PlannerParams()
         p = self.params
         self.inflation = p.robot_radius + p.inflation_margin
+        self.keepout = self._padded_keepout(field, p.keepout)
+        dist = field.dist
+        if self.keepout is not None:  # keepout cells count as obstacles for the plan (and only for the plan)
+            free = (~(field.obstacle | self.keepout)).astype(np.uint8)
+            dist = cv2.distanceTransform(free, cv2.DIST_L2, cv2.DIST_MASK_PRECISE).astype(np.float64)
+            dist *= field.resolution
         # Clearance of a cell = distance to the nearest obstacle surface (centre distance - half a cell).
-        self.clear = field.dist - 0.5 * field.resolution
+        self.clear = dist - 0.5 * field.resolution
+        del dist
         lethal = self.clear < self.inflation
         self.lethal = lethal
         cost = 1.0 + p.cost_scale * np.exp(-(self.clear - self.inflation) / max(p.cost_decay, 1e-6))
@@ -105,6 +117,20 @@ class Planner:
         self._col = list(range(w)) * h  # one int object per column and per row, shared by every cell
         self._row = [j for j in range(h) for _ in range(w)]
         self._landmarks = self._build_landmarks()
+
+    @staticmethod
+    def _padded_keepout(field: ObstacleField, keepout: np.ndarray | None) -> np.ndarray | None:
+        """The keepout cells on the field's padded grid, or None when there are none."""
+        if keepout is None:
+            return None
+        keepout = np.asarray(keepout, dtype=bool)
+        if keepout.shape != field.map.data.shape:
+            raise ValueError(f"keepout cells of shape {keepout.shape} do not match the map's {field.map.data.shape}")
+        if not keepout.any():
+            return None
+        padded = np.zeros_like(field.obstacle)
+        padded[1:-1, 1:-1] = keepout
+        return padded
 
     def _dijkstra(self, source: int) -> list[float]:
         """Exact path cost from ``source`` to every cell (INF where unreachable)."""
@@ -229,6 +255,30 @@ class Planner:
                     best, best_d = n, d
         return best
 
+    def _in_keepout(self, idx: int) -> bool:
+        """Whether a cell is in (or, inflated, too near) a keepout zone rather than a real obstacle."""
+        if self.keepout is None:
+            return False
+        return bool(self.field.dist.ravel()[idx] - 0.5 * self.field.resolution >= self.params.robot_radius)
+
+    def explain_no_path(self, start: int, goal: int) -> str:
+        """Why two free cells of different regions are not connected: the narrowest passage and the inflation
+        that closed it (see :mod:`navigation.passages`)."""
+        passage = narrowest_passage(self.clear, start, goal)
+        if passage is None:
+            return "the goal lies in a region the start cannot reach"  # walled off: inflation is not why
+        j, i = divmod(passage.cell, self.field.width)
+        x, y = self.field.map.cell_to_world(i - 1, j - 1)
+        p = self.params
+        text = (f"the goal lies in a region the start cannot reach: the narrowest passage on the way, near "
+                f"({x:.2f}, {y:.2f}), is about {passage.width(self.field.resolution):.2f} m wide and leaves "
+                f"{passage.clearance:.3f} m each side of the robot's centre; planning keeps {self.inflation:.3f} m "
+                f"(robot radius {p.robot_radius:g} + inflation margin {p.inflation_margin:g})")
+        opening = math.floor((passage.clearance - p.robot_radius) * 100 + 1e-6) / 100  # whole centimetres
+        if opening >= 0.0:
+            return f"{text}: an inflation margin of {opening:.2f} m or less opens it"
+        return f"{text}: narrower than the robot itself, no inflation margin opens it"
+
     # -- search -------------------------------------------------------------------------------------
     def _astar(self, start: int, goal: int) -> tuple[list[int] | None, int]:
         """8-connected A* with the octile heuristic; diagonal steps may not clip a lethal corner. None after
@@ -345,16 +395,17 @@ class Planner:
             return fail("start is outside the map")
         escape = [s] if self._cost[s] < INF else self._escape(s)
         if escape is None:
-            return fail("start is in an obstacle")
+            return fail("start is in a keepout zone" if self._in_keepout(s) else "start is in an obstacle")
         g = self._index(goal.x, goal.y)
         if g is None:
             return fail("goal is outside the map")
         label = int(self._labels[escape[-1]])
         g_cell = self._goal_cell(g, goal.x, goal.y, goal_tolerance, label)
         if g_cell is None:
-            if self._goal_cell(g, goal.x, goal.y, goal_tolerance, None) is None:
-                return fail("goal is in an obstacle")
-            return fail("no path: the goal lies in a region the start cannot reach")
+            g_any = self._goal_cell(g, goal.x, goal.y, goal_tolerance, None)
+            if g_any is None:
+                return fail("goal is in a keepout zone" if self._in_keepout(g) else "goal is in an obstacle")
+            return fail(f"no path: {self.explain_no_path(escape[-1], g_any)}")
         cells, expansions = self._astar(escape[-1], g_cell)
         if cells is None:
             if expansions > self.params.max_expansions:

@@ -9,20 +9,24 @@ needed. Drawing happens in the map's grid frame, so maps with a rotated origin c
 from __future__ import annotations
 
 import contextlib
+import itertools
 import logging
 import math
 import os
-from collections.abc import Sequence
-from dataclasses import dataclass
+from collections.abc import Iterator, Sequence
+from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import cv2
 import numpy as np
 
 from strictio import OutputError, write_atomically
 from strictio.atomic import check_replaceable, remove_stale_temporaries, temporary_path
+from strictio.shown import drawable
 from strictio.video import VideoFile
 
+from .costmap_filters import blend_overlay
 from .docking import DockingStation
 from .geometry import Pose2D
 from .maps import OccupancyMap
@@ -31,12 +35,47 @@ log = logging.getLogger(__name__)
 
 STILL = (".png", ".jpg", ".jpeg", ".bmp")
 ANIMATED = (".gif", ".avi", ".mp4")
+#: The long side of a GIF animation (pixels) and its most frames.
+GIF_SIDE, GIF_FRAMES = 800, 100
 
 PATH_COLOUR = (200, 110, 20)
 GOAL_COLOUR = (30, 30, 220)
 STATION_COLOUR = (40, 160, 40)
 ROBOT_COLOUR = (0, 140, 255)
 TEXT_COLOUR = (40, 40, 40)
+BELIEVED_COLOUR = (160, 40, 160)
+LOST_COLOUR = (0, 0, 200)
+KIDNAP_COLOUR = (20, 20, 20)
+
+
+Point = tuple[float, float]
+
+
+@dataclass
+class LocalizationMarks:
+    """Where the robot believed it was, gathered from the run's events (subscribe it to the event log): the
+    believed track (``localization`` events, t x y), each ``localization_lost`` (t, believed, true) and each
+    ``kidnap`` (t, from, to). The picture draws them over the true trajectory."""
+
+    believed: list[tuple[float, float, float]] = field(default_factory=list)
+    lost: list[tuple[float, Point, Point]] = field(default_factory=list)
+    kidnaps: list[tuple[float, Point, Point]] = field(default_factory=list)
+
+    def __call__(self, ev: dict[str, Any]) -> None:
+        kind = ev.get("type")
+        if kind in ("localization", "localization_lost", "relocalize", "localization_regained") and \
+                isinstance(ev.get("believed"), dict):
+            b = ev["believed"]
+            self.believed.append((float(ev["t"]), float(b["x"]), float(b["y"])))
+            if kind == "localization_lost" and isinstance(ev.get("true"), dict):
+                self.lost.append((float(ev["t"]), (float(b["x"]), float(b["y"])),
+                                  (float(ev["true"]["x"]), float(ev["true"]["y"]))))
+        elif kind == "kidnap" and isinstance(ev.get("from"), dict) and isinstance(ev.get("to"), dict):
+            a, z = ev["from"], ev["to"]
+            self.kidnaps.append((float(ev["t"]), (float(a["x"]), float(a["y"])), (float(z["x"]), float(z["y"]))))
+
+    def __bool__(self) -> bool:
+        return bool(self.believed or self.kidnaps)
 
 
 @dataclass
@@ -52,12 +91,16 @@ class RunPicture:
     robot_radius: float = 0.18
     caption: str = ""
     states: Sequence[tuple[float, str]] = ()
+    # Keepout and speed zones, a BGRA layer over the map's cells (navigation.costmap_filters.zone_overlay).
+    zones: np.ndarray | None = None
+    # The believed pose, localisation lost and kidnaps (from the events), drawn over the true trajectory.
+    localization: LocalizationMarks | None = None
 
 
 class _Canvas:
     """Crop of the map around what matters, scaled up; converts world points to pixels."""
 
-    def __init__(self, pic: RunPicture, max_side: int) -> None:
+    def __init__(self, pic: RunPicture, max_side: int, min_side: int = 0) -> None:
         m = pic.map
         known = np.argwhere(m.data >= 0)
         pts = [m.world_to_grid(x, y) for _, x, y, _ in pic.trajectory]
@@ -73,9 +116,18 @@ class _Canvas:
         self.r0 = max(0, math.floor(min(rows)) - margin)
         self.r1 = min(m.height, math.ceil(max(rows)) + margin)
         crop = m.to_image()[m.height - self.r1:m.height - self.r0, self.c0:self.c1]
-        self.scale = max(1, max_side // max(crop.shape))
-        base = cv2.resize(crop, None, fx=self.scale, fy=self.scale, interpolation=cv2.INTER_NEAREST)
+        longest = max(crop.shape)
+        # A map larger than the picture is scaled down (a 5000x5000 map made 75 MB frames, 300 of them a video)
+        self.scale: float = max(1, max_side // longest) if longest <= max_side else max_side / longest
+        if longest * self.scale < min_side:  # a small map in an animation to project: scaled up to min_side
+            self.scale = min_side / longest
+        base = cv2.resize(crop, None, fx=self.scale, fy=self.scale,
+                          interpolation=cv2.INTER_NEAREST if self.scale >= 1 else cv2.INTER_AREA)
         self.base = cv2.cvtColor(base, cv2.COLOR_GRAY2BGR)
+        if pic.zones is not None:
+            layer = cv2.resize(pic.zones[self.r0:self.r1, self.c0:self.c1][::-1], (base.shape[1], base.shape[0]),
+                               interpolation=cv2.INTER_NEAREST)
+            self.base = blend_overlay(self.base, layer)
         self.map = m
         self.px_per_m = self.scale / m.resolution
 
@@ -122,7 +174,8 @@ def _draw_static(canvas: _Canvas, pic: RunPicture, img: np.ndarray) -> None:
         p = canvas.px(g.x, g.y)
         cv2.circle(img, p, max(3, round(0.08 * canvas.px_per_m)), GOAL_COLOUR, 1, cv2.LINE_AA)
         cv2.arrowedLine(img, p, canvas.heading(g, 0.3), GOAL_COLOUR, 1, cv2.LINE_AA, tipLength=0.35)
-        cv2.putText(img, str(i), (p[0] + 5, p[1] + 12), cv2.FONT_HERSHEY_SIMPLEX, fs, GOAL_COLOUR, 1, cv2.LINE_AA)
+        cv2.putText(img, drawable(str(i)), (p[0] + 5, p[1] + 12), cv2.FONT_HERSHEY_SIMPLEX, fs, GOAL_COLOUR, 1,
+                    cv2.LINE_AA)
 
 
 def _trajectory_pixels(canvas: _Canvas, pic: RunPicture) -> np.ndarray:
@@ -152,6 +205,34 @@ def _draw_collisions(canvas: _Canvas, pic: RunPicture, img: np.ndarray) -> None:
         cv2.line(img, (cx - size, cy + size), (cx + size, cy - size), (0, 0, 255), 2)
 
 
+def _draw_localization(canvas: _Canvas, pic: RunPicture, img: np.ndarray, until: float = math.inf) -> None:
+    """The believed track (dashed) up to ``until``, each loss as a line from the believed to the true pose with
+    a ring at the believed one, each kidnap as an arrow from where the robot was to where it was put."""
+    marks = pic.localization
+    if not marks:
+        return
+    track = [canvas.px(x, y) for t, x, y in marks.believed if t <= until]
+    for k, (a, b) in enumerate(itertools.pairwise(track)):
+        if k % 2 == 0:
+            cv2.line(img, a, b, BELIEVED_COLOUR, 2, cv2.LINE_AA)
+    for t, believed, true in marks.lost:
+        if t <= until:
+            a, b = canvas.px(*believed), canvas.px(*true)
+            cv2.line(img, a, b, LOST_COLOUR, 1, cv2.LINE_AA)
+            cv2.circle(img, a, max(4, round(0.15 * canvas.px_per_m)), LOST_COLOUR, 2, cv2.LINE_AA)
+    for t, start, end in marks.kidnaps:
+        if t <= until:
+            cv2.arrowedLine(img, canvas.px(*start), canvas.px(*end), KIDNAP_COLOUR, 2, cv2.LINE_AA, tipLength=0.08)
+
+
+def _localization_key(pic: RunPicture) -> list[str]:
+    """The caption lines that say what the localisation marks mean (none without them)."""
+    if not pic.localization:
+        return []
+    return ["purple dashes: where the robot believed it was", "red ring, line: localisation lost (believed -> true)",
+            "black arrow: kidnapped (from -> to)"]
+
+
 def _state_at(pic: RunPicture, t: float) -> str:
     state = ""
     for when, name in pic.states:
@@ -163,10 +244,10 @@ def _state_at(pic: RunPicture, t: float) -> str:
 def _label(img: np.ndarray, text: str, line: int = 0) -> None:
     """Dark text on a white box at the top left, readable over any part of the map."""
     fs = _font_scale(img) * 1.1
-    (w, h), base = cv2.getTextSize(text, cv2.FONT_HERSHEY_SIMPLEX, fs, 1)
+    (w, h), base = cv2.getTextSize(drawable(text), cv2.FONT_HERSHEY_SIMPLEX, fs, 1)
     y = 6 + (h + base + 6) * line
     cv2.rectangle(img, (4, y), (12 + w, y + h + base + 4), (255, 255, 255), -1)
-    cv2.putText(img, text, (8, y + h + 2), cv2.FONT_HERSHEY_SIMPLEX, fs, TEXT_COLOUR, 1, cv2.LINE_AA)
+    cv2.putText(img, drawable(text), (8, y + h + 2), cv2.FONT_HERSHEY_SIMPLEX, fs, TEXT_COLOUR, 1, cv2.LINE_AA)
 
 
 def render_still(pic: RunPicture, max_side: int = 1000) -> np.ndarray:
@@ -175,41 +256,48 @@ def render_still(pic: RunPicture, max_side: int = 1000) -> np.ndarray:
     _draw_static(canvas, pic, img)
     _draw_trail(img, _trajectory_pixels(canvas, pic))
     _draw_collisions(canvas, pic, img)
+    _draw_localization(canvas, pic, img)
     if pic.trajectory:
         _draw_robot(canvas, pic, img, len(pic.trajectory) - 1)
-    for k, line in enumerate(pic.caption.splitlines()):
+    for k, line in enumerate([*pic.caption.splitlines(), *_localization_key(pic)]):
         _label(img, line, k)
     return img
 
 
-def render_frames(pic: RunPicture, max_side: int = 720, max_frames: int = 300) -> list[np.ndarray]:
-    """Frames at evenly spaced moments of the run (at most ``max_frames``).
+def render_frames(pic: RunPicture, max_side: int = 720, max_frames: int = 300, min_side: int = 0
+                  ) -> Iterator[np.ndarray]:
+    """Frames at evenly spaced moments of the run (at most ``max_frames``), made one at a time as they are asked
+    for (300 frames of 720x720 kept at once were 470 MB).
 
     The trail is drawn incrementally on one canvas, so a long run costs its length once, not per frame.
     """
-    canvas = _Canvas(pic, max_side)
+    canvas = _Canvas(pic, max_side, min_side)
     trail = canvas.base.copy()
     _draw_static(canvas, pic, trail)
     n = len(pic.trajectory)
     if n == 0:
-        return [trail]
+        yield trail
+        return
     pixels = _trajectory_pixels(canvas, pic)
-    frames = []
     done = 0
     for k in np.linspace(1, n, max(2, min(max_frames, n))).round().astype(int):
         _draw_trail(trail, pixels[max(0, done - 1):k])
         done = int(k)
         img = trail.copy()
+        _draw_localization(canvas, pic, img, pic.trajectory[done - 1][0])
         _draw_robot(canvas, pic, img, done - 1)
         _label(img, f"t = {pic.trajectory[done - 1][0]:7.1f} s   {_state_at(pic, pic.trajectory[done - 1][0])}")
-        frames.append(img)
-    return frames
+        for k, line in enumerate(_localization_key(pic)):
+            _label(img, line, k + 1)
+        yield img
 
 
 def _encoded(ext: str, pic: RunPicture) -> bytes:
     """A still picture or a GIF animation as the bytes of its file."""
     if ext == ".gif":
-        frames = render_frames(pic, max_side=480, max_frames=150)
+        # Large enough to project (GIF_SIDE on the long side, a 246x326 one was not); the encoder takes every
+        # frame at once, so there are fewer of them: 100 of 800x800 are 190 MB.
+        frames = list(render_frames(pic, max_side=GIF_SIDE, max_frames=GIF_FRAMES, min_side=GIF_SIDE))
         anim = cv2.Animation()
         anim.frames = frames
         anim.durations = [80] * len(frames)
@@ -225,7 +313,8 @@ def _write_video(path: Path, ext: str, pic: RunPicture) -> None:
     """Write the animation under a temporary name, check that every frame reads back, then rename it: OpenCV's
     video writer reports no write error, so a full disk shows only as missing frames."""
     frames = render_frames(pic)
-    h, w = frames[0].shape[:2]
+    first = next(frames)
+    h, w = first.shape[:2]
     h, w = h - h % 2, w - w % 2  # most codecs want even sizes
     target = Path(os.path.realpath(path))
     if not target.parent.is_dir():
@@ -235,11 +324,13 @@ def _write_video(path: Path, ext: str, pic: RunPicture) -> None:
     temporary = temporary_path(target, ext)  # the suffix chooses the container
     try:
         video = VideoFile(temporary, 15.0, (w, h), shown_as=path, watch_growth=False)
-        for frame in frames:
+        written = 0
+        for frame in itertools.chain([first], frames):
             video.write(np.ascontiguousarray(frame[:h, :w]))
+            written += 1
         readable = video.finish()
-        if readable < len(frames):
-            raise OutputError(path, f"cannot save: only {readable} of {len(frames)} frames could be written "
+        if readable < written:
+            raise OutputError(path, f"cannot save: only {readable} of {written} frames could be written "
                                     "(a full disk or a file size limit?)")
         os.replace(temporary, target)
     except OutputError:

@@ -50,6 +50,12 @@ class Summary:
     localization_error_mean: float = 0.0
     localization_error_max: float = 0.0
     localization_updates: int = 0
+    # How often amcl declared itself lost and found itself again; where it believed the robot was at the end, and
+    # where the robot really was (None without a localizer or on a live robot, which knows no truth).
+    localization_lost: int = 0
+    localization_regained: int = 0
+    believed_pose: tuple[float, float, float] | None = None
+    true_pose: tuple[float, float, float] | None = None
     # The robot's clock is the wall clock (a live robot): sim_time is then real time.
     wall_clock: bool = False
 
@@ -70,7 +76,24 @@ class Summary:
             "localization_error_mean_m": round(self.localization_error_mean, 3),
             "localization_error_max_m": round(self.localization_error_max, 3),
             "localization_updates": self.localization_updates,
+            "localization_lost": self.localization_lost, "localization_regained": self.localization_regained,
+            "believed_pose": _pose_dict(self.believed_pose), "true_pose": _pose_dict(self.true_pose),
         }
+
+
+def _pose_dict(pose: tuple[float, float, float] | None) -> dict[str, float] | None:
+    return None if pose is None else {"x": round(pose[0], 3), "y": round(pose[1], 3), "yaw": round(pose[2], 3)}
+
+
+def _localizer_figures(robot: object) -> dict[str, Any]:
+    """Lost/regained counts and the believed vs true pose from the simulator's localizer, if it has one."""
+    loc = getattr(robot, "localizer", None)
+    if loc is None or getattr(robot, "wall_clock", False):
+        return {}
+    return {"localization_lost": getattr(loc, "lost_count", 0),
+            "localization_regained": getattr(loc, "regained_count", 0),
+            "believed_pose": (loc.estimate.x, loc.estimate.y, loc.estimate.yaw),
+            "true_pose": (loc.truth.x, loc.truth.y, loc.truth.yaw)}
 
 
 def summarize(machine: PatrolMachine, wall_time: float) -> Summary:
@@ -79,7 +102,7 @@ def summarize(machine: PatrolMachine, wall_time: float) -> Summary:
     return Summary(
         outcome=machine.outcome,
         final_states=tuple(machine.active_states()),
-        preempt_reason=machine.preempt_reason,
+        preempt_reason=machine.preempt_reason or machine.end_reason,
         laps=st.laps, goals_reached=st.goals_reached, goals_aborted=st.goals_aborted,
         goals_preempted=st.goals_preempted, distance=report.distance, odometry_drift=report.odometry_drift,
         collisions=report.collisions,
@@ -90,6 +113,7 @@ def summarize(machine: PatrolMachine, wall_time: float) -> Summary:
         localization_error_max=report.localization_error_max,
         localization_updates=report.localization_updates,
         wall_clock=robot.wall_clock,
+        **_localizer_figures(robot),
     )
 
 

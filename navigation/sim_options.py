@@ -37,7 +37,7 @@ def add_simulation_options(parser: argparse.ArgumentParser) -> argparse._Argumen
     sim.add_argument("--dt", type=TIME_STEP, default=0.1, metavar="SECONDS",
                      help=f"time step (default 0.1; {TIME_STEP.describe()})")
     sim.add_argument("--realtime", action="store_true", help="run at wall-clock speed instead of flat out")
-    sim.add_argument("--margin", type=MARGIN, default=0.10, metavar="METRES",
+    sim.add_argument("--margin", type=MARGIN, metavar="METRES",  # None: the parameters file or 0.10 decides
                      help=f"obstacle inflation beyond the robot radius for planning (default 0.10; "
                           f"{MARGIN.describe()})")
     return sim
@@ -45,6 +45,8 @@ def add_simulation_options(parser: argparse.ArgumentParser) -> argparse._Argumen
 
 def simulation_config(args: argparse.Namespace, base: SimConfig | None = None) -> SimConfig:
     """``base`` (the defaults) with the simulation options of ``args``; noise applies to both odometry axes."""
-    return replace(base or SimConfig(), dt=args.dt, seed=args.seed, inflation_margin=args.margin,
+    base = base or SimConfig()
+    margin = base.inflation_margin if args.margin is None else args.margin
+    return replace(base, dt=args.dt, seed=args.seed, inflation_margin=margin,
                    odom_linear_noise=args.odom_noise, odom_angular_noise=args.odom_noise,
                    localization=args.localization)

@@ -31,6 +31,7 @@ from .move_base import MoveBase, MoveBaseParams
 from .planner import Planner, PlannerParams
 from .robot import DiffDriveRobot, Odometry, RobotParams
 from .robot_interface import RobotReport
+from .walkers import Crowd
 from .world import World
 
 log = logging.getLogger(__name__)
@@ -90,7 +91,11 @@ class Simulation:
         self.events = EventLog(lambda: self.clock.now)
         self.rng = np.random.default_rng(cfg.seed)
         self.field = field_ or ObstacleField(occ_map, cfg.lethal_threshold, cfg.unknown_is_obstacle)
-        self.world = world  # objects and obstacles the map does not have: solid and seen by the laser
+        # Objects and obstacles the map does not have: solid and seen by the laser. The simulation steps its own
+        # live copy, whose walkers record where they really went (they stop or step aside for the robot).
+        self.world = world.live() if world is not None else None
+        self.crowd = Crowd(self.world, lambda x, y, r: not self._collides_static(x, y, r)) \
+            if self.world is not None else None
         radius = cfg.robot.radius
         if self._collides(start.x, start.y, radius):
             raise StartPoseError(
@@ -159,6 +164,21 @@ class Simulation:
             return True
         return self.world is not None and self.world.collides(x, y, radius, self.clock.now)
 
+    def _collides_static(self, x: float, y: float, radius: float) -> bool:
+        """The map's obstacles and the world's things that stand still: where a walker cannot step."""
+        if self.field.collides(x, y, radius):
+            return True
+        return self.world is not None and self.world.collides_static(x, y, radius)
+
+    def _count_collision(self, x: float, y: float, by: str, what: str) -> None:
+        """Count a new contact once (until the robot is clear again) and record where it happened."""
+        if self.in_contact:
+            return
+        self.collisions += 1
+        self.collision_points.append((x, y))
+        self.events.emit("collision", x=round(x, 3), y=round(y, 3), by=by, obstacle=what)
+        self.in_contact = True
+
     def pose_estimate(self) -> Pose2D:
         """The pose navigation drives on: the true pose (``exact``) or the localizer's estimate."""
         return self.robot.pose if self.localizer is None else self.localizer.estimate
@@ -197,11 +217,8 @@ class Simulation:
         x0, y0, yaw0 = robot.x, robot.y, robot.yaw
         x, y, yaw, nv, nw = robot.propose(v, w, dt)
         if (x != x0 or y != y0) and self._collides(x, y, robot.params.radius):
-            if not self.in_contact:
-                self.collisions += 1
-                self.collision_points.append((x0, y0))
-                self.events.emit("collision", x=round(x0, 3), y=round(y0, 3))
-            self.in_contact = True
+            hit = self.world.colliding(x, y, robot.params.radius, self.clock.now) if self.world is not None else []
+            self._count_collision(x0, y0, "robot", hit[0] if hit else "map")
             robot.stop()
             x, y, nv = x0, y0, 0.0
             robot.accept(x, y, yaw, 0.0, nw)
@@ -209,6 +226,12 @@ class Simulation:
             if self.in_contact and not self._collides(x, y, robot.params.radius + CONTACT_RELEASE):
                 self.in_contact = False
             robot.accept(x, y, yaw, nv, nw)
+        if self.crowd is not None and self.world is not None:
+            self.crowd.step(self.clock.now, dt, robot.pose, robot.params.radius)
+            # A walker that moved into the robot (a blind one, or the robot drove under its step) is a contact too.
+            overlap = self.world.moving_overlap(robot.x, robot.y, robot.params.radius, self.clock.now)
+            if overlap is not None:
+                self._count_collision(robot.x, robot.y, "obstacle", overlap)
         ds = math.hypot(x - x0, y - y0)
         self.distance += ds
         self.odom.update(math.copysign(ds, nv), wrap_angle(yaw - yaw0))

@@ -78,7 +78,7 @@ class TaskRunner:
             for listener in list(self.listeners):
                 listener(visit)
         finally:
-            visit.frames.clear()
+            visit.drop_frames()
 
     # -- tasks ------------------------------------------------------------------------------------------
     def start(self, state: str) -> None:
@@ -90,11 +90,7 @@ class TaskRunner:
         self._contexts[state] = ctx
         kind = getattr(task, "kind", task.state.lower())
         ctx.emit("task_start", task=kind, what=task.describe())
-        try:
-            task.start(ctx)
-        except Exception as exc:  # a broken task aborts itself, not the patrol (the error is logged in full)
-            log.error("task %s at %s failed: %s", kind, state, exc, exc_info=True)
-            ctx.fail(f"error: {type(exc).__name__}: {exc}")
+        ctx.guard(lambda: task.start(ctx))  # a broken task aborts itself, not the patrol
 
     def stop(self, state: str) -> None:
         """The state is left: a task still running is cancelled and its ending ignored."""

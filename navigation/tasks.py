@@ -35,6 +35,7 @@ from declare.fields import (
 )
 from declare.registry import Registry
 
+from . import frame_store
 from .clock import Timer
 from .geometry import Pose2D
 
@@ -62,14 +63,33 @@ class TaskSpecError(DocumentError):
         super().__init__(path, key_path or "", rule or "", line=line, value=value)
 
 
-@dataclass
 class Capture:
-    """One camera frame taken at a pose, with the pose the robot believed it had when it took it."""
+    """One camera frame taken at a pose, with the pose the robot believed it had when it took it.
 
-    frame: Any
-    pose: Pose2D
-    t: float
-    label: str = ""
+    Kept with a visit, its frame is on disk (:mod:`navigation.frame_store`) and :attr:`frame` reads it back each
+    time it is asked for, so a task going through many captures holds one frame at a time."""
+
+    __slots__ = ("_file", "_frame", "label", "pose", "t")
+
+    def __init__(self, frame: Any, pose: Pose2D, t: float, label: str = "") -> None:
+        self._frame: Any = frame
+        self._file: Path | None = None
+        self.pose, self.t, self.label = pose, t, label
+
+    @property
+    def frame(self) -> Any:
+        return self._frame if self._file is None else frame_store.load(self._file)
+
+    def spill(self, store: frame_store.FrameStore) -> None:
+        """Move the frame into ``store`` (it stays in memory when the store cannot take it)."""
+        if self._file is None:
+            self._file = store.put(self._frame)
+            if self._file is not None:
+                self._frame = None
+
+    def __repr__(self) -> str:
+        where = f"file={self._file}" if self._file is not None else "in memory"
+        return f"Capture({where}, pose={self.pose!r}, t={self.t!r}, label={self.label!r})"
 
 
 @dataclass
@@ -101,10 +121,21 @@ class Visit:
     tasks: list[TaskOutcome] = field(default_factory=list)
     frames: list[Capture] = field(default_factory=list)
     data: dict[str, Any] = field(default_factory=dict)
+    _store: frame_store.FrameStore = field(default_factory=frame_store.FrameStore, repr=False, compare=False)
 
     @property
     def reached(self) -> bool:
         return self.goal_status == "SUCCEEDED"
+
+    def keep(self, shot: Capture) -> None:
+        """Keep a capture for the tasks after this one, its frame on disk until the visit ends."""
+        shot.spill(self._store)
+        self.frames.append(shot)
+
+    def drop_frames(self) -> None:
+        """The visit is over: its captures and their files go."""
+        self.frames.clear()
+        self._store.close()
 
 
 class StateTask(ABC):
@@ -282,18 +313,33 @@ class TaskContext:
             raise RuntimeError("this patrol has no camera")
         shot = Capture(self.machine.camera(), self.pose(), self.now, label)
         if self.visit is not None:
-            self.visit.frames.append(shot)
+            self.visit.keep(shot)
         return shot
 
     def after(self, seconds: float, callback: Callable[[], None]) -> Timer:
-        timer = self.sim.clock.call_later(seconds, callback)
+        timer = self.sim.clock.call_later(seconds, lambda: self.guard(callback))
         self._timers.append(timer)
         return timer
 
     def every(self, period: float, callback: Callable[[], None], first: float | None = None) -> Timer:
-        timer = self.sim.clock.every(period, callback, first)
+        timer = self.sim.clock.every(period, lambda: self.guard(callback), first)
         self._timers.append(timer)
         return timer
+
+    def guard(self, call: Callable[[], None]) -> None:
+        """Run a part of the task (its start, a timer's callback): an exception aborts this task only, with the
+        error in its result, and the patrol goes on (one error line; the traceback at INFO, which a command's
+        ``--verbose`` shows). A missing library (ImportError) is not the task's failure but the installation's:
+        it ends the command, which names the extra to install."""
+        try:
+            call()
+        except ImportError:
+            raise
+        except Exception as exc:
+            kind = getattr(self.task, "kind", self.task.state.lower())
+            log.error("task %s at %s failed: %s: %s", kind, self.state, type(exc).__name__, exc)
+            log.info("where task %s failed:", kind, exc_info=True)
+            self.fail(f"error: {type(exc).__name__}: {exc}")
 
     def drive(self, v: float, w: float) -> None:
         """Command the base directly (move_base is idle during tasks)."""

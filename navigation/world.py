@@ -26,7 +26,9 @@ floor (a sphere's centre is at ``z + radius``); ``yaw`` (radians) is the heading
 ``depth`` runs along that heading and its ``width`` across it; a poster is ``width`` wide across the
 heading, ``height`` tall, shows its image on the side it faces (+yaw) and its ``color`` on the back. A
 moving obstacle goes from the first point of ``path`` to the second and back at ``speed`` m/s, starting
-at the first at t = 0, facing along the path unless ``yaw`` is given. Every object and obstacle is solid
+at the first at t = 0, facing along the path unless ``yaw`` is given; it is a body, never passing through
+the robot: ``avoid: stop`` (the default) waits for it, ``sidestep`` steps round it, ``none`` is blind to it
+(:mod:`navigation.walkers`). Every object and obstacle is solid
 from the floor up (a column), for collisions and for the laser. Errors name the file, the line, the
 object and the field.
 """
@@ -60,11 +62,13 @@ from declare.fields import (
     read_document,
 )
 from strictio import InputError, YAMLLimits
-from strictio.image_size import read_image_file
+from strictio.image_size import image_size, read_image_file
+from strictio.limits import IMAGE_PIXELS, POSTER_PIXELS, check
 
 from .geometry import Pose2D
 from .laser import LaserScan
 from .maps import MAX_COORDINATE, MAX_YAW, decode_image
+from .walkers import AVOID_MODES, WalkerTrack
 
 log = logging.getLogger(__name__)
 
@@ -159,6 +163,10 @@ class MovingObstacle:
     start: tuple[float, float]
     end: tuple[float, float]
     speed: float
+    #: How it reacts to the robot: ``stop``, ``sidestep`` or ``none`` (see :mod:`navigation.walkers`).
+    avoid: str = "stop"
+    #: Where it really went, in a simulation's live copy of the world (:meth:`World.live`); None: scripted.
+    track: WalkerTrack | None = field(default=None, compare=False, repr=False)
 
     @property
     def name(self) -> str:
@@ -173,6 +181,10 @@ class MovingObstacle:
         return math.hypot(self.end[0] - self.start[0], self.end[1] - self.start[1])
 
     def position_at(self, t: float) -> tuple[float, float]:
+        if self.track is not None:
+            placed = self.track.at(t)
+            if placed is not None:
+                return placed
         length = self.length
         if length <= 0.0 or self.speed <= 0.0:
             return self.start
@@ -187,7 +199,7 @@ class MovingObstacle:
 
     def shifted(self, dx: float, dy: float) -> MovingObstacle:
         return MovingObstacle(self.body.shifted(dx, dy), (self.start[0] + dx, self.start[1] + dy),
-                              (self.end[0] + dx, self.end[1] + dy), self.speed)
+                              (self.end[0] + dx, self.end[1] + dy), self.speed, self.avoid)
 
 
 Obstacle = WorldObject | MovingObstacle
@@ -317,6 +329,15 @@ class World:
             objects=tuple(o.shifted(dx, dy) if o.name == name else o for o in self.objects),
             obstacles=tuple(o.shifted(dx, dy) if o.name == name else o for o in self.obstacles))
 
+    def live(self) -> World:
+        """A copy whose moving obstacles record where they really go (a fresh :class:`WalkerTrack` each).
+
+        A simulation steps its own live copy (:class:`navigation.walkers.Crowd`), so walkers that stop for
+        the robot are where the collision check, the laser and the camera look for them at every time.
+        """
+        return replace(self, obstacles=tuple(replace(o, track=WalkerTrack()) if isinstance(o, MovingObstacle) else o
+                                             for o in self.obstacles))
+
     # -- geometry at a time ------------------------------------------------------------------------
     def solids_at(self, t: float = 0.0) -> list[WorldObject]:
         """Every object and obstacle placed where it is at simulated time ``t`` (what the camera draws)."""
@@ -333,6 +354,20 @@ class World:
                     and fp.distance(x, y) < radius:
                 return True
         return any(o.at(t).footprint().distance(x, y) < radius for o in self._moving)
+
+    def collides_static(self, x: float, y: float, radius: float) -> bool:
+        """Whether a disc overlaps an object or a standing obstacle (where a walker cannot step)."""
+        return any(fp.distance(x, y) < radius for fp in self._static
+                   if abs(x - fp.x) < fp.radius + radius and abs(y - fp.y) < fp.radius + radius)
+
+    def moving_overlap(self, x: float, y: float, radius: float, t: float) -> str | None:
+        """The name of a moving obstacle a disc of ``radius`` at (x, y) overlaps at time ``t``, if any."""
+        return next((o.name for o in self._moving if o.at(t).footprint().distance(x, y) < radius), None)
+
+    def colliding(self, x: float, y: float, radius: float, t: float = 0.0) -> list[str]:
+        """The names of the objects and obstacles a disc of ``radius`` at (x, y) overlaps at time ``t`` (what a
+        refused start pose says it is inside of)."""
+        return [thing.name for thing in self.solids_at(t) if thing.footprint().distance(x, y) < radius]
 
     def ray_distances(self, x: float, y: float, angles: np.ndarray | Sequence[float], max_range: float,
                       t: float = 0.0) -> np.ndarray:
@@ -394,6 +429,7 @@ def _thing_fields(shape: str, moving: bool, color: Color) -> dict[str, Any]:
     if moving:
         fields["path"] = Vector(_POINT, ("start", "end"), required=True, doc="a speed needs a path")
         fields["speed"] = Value(Float(0.5, "m/s", min=0.0, min_open=True, max=MAX_COORDINATE), required=True)
+        fields["avoid"] = Choice("stop", AVOID_MODES)
     return fields
 
 
@@ -421,7 +457,7 @@ class _Thing(Free):
             start, end = raw["path"]
             yaw = raw["yaw"] if raw["yaw"] is not None else math.atan2(end[1] - start[1], end[0] - start[0])
             body = WorldObject(raw["name"], shape, start[0], start[1], raw["z"], yaw, color=raw["color"], **sizes)
-            return MovingObstacle(body, start, end, raw["speed"])
+            return MovingObstacle(body, start, end, raw["speed"], raw["avoid"])
         image, image_path = None, None
         if shape == "poster":
             image_path = raw["image"]
@@ -463,11 +499,30 @@ def _world(document: Document) -> World:
                  background_color=raw["background"]["color"], source=document.path, map_path=raw["map"])
 
 
+#: The long side a poster is kept at: the camera draws 640x480 frames, so a poster filling the view shows at most
+#: some 640 of its pixels across; 1024 keeps every poster at most 3 MB however large its file (issue 27: eight
+#: posters at the image pixel limit took 2.5 GB).
+POSTER_SIDE = 1024
+
+
 def read_image(path: Path) -> np.ndarray:
-    """A BGR uint8 image read through strictio: a regular file whose header is within the pixel limit
-    (``OBJREC_MAX_IMAGE_PIXELS``), checked before decoding; InputError otherwise."""
-    data, _size = read_image_file(path)
-    return np.ascontiguousarray(decode_image(data, path, cv2.IMREAD_COLOR))
+    """A BGR uint8 image read through strictio: a regular file whose header is within the pixel limits
+    (``OBJREC_MAX_IMAGE_PIXELS``, then ``OBJREC_MAX_POSTER_PIXELS``), checked before decoding; InputError
+    otherwise. Larger than :data:`POSTER_SIDE` on its long side, it is scaled down at once."""
+    header = image_size(path)  # both limits from the header, before the file is read
+    if header is not None:
+        check(path, IMAGE_PIXELS, header[0] * header[1], f"image of {header[0]}x{header[1]}")
+        check(path, POSTER_PIXELS, header[0] * header[1], f"poster of {header[0]}x{header[1]}")
+    data, size = read_image_file(path)
+    check(path, POSTER_PIXELS, size[0] * size[1], f"poster of {size[0]}x{size[1]}")
+    pixels = decode_image(data, path, cv2.IMREAD_COLOR)
+    del data
+    longest = max(pixels.shape[:2])
+    if longest > POSTER_SIDE:
+        scale = POSTER_SIDE / longest
+        width, height = max(1, round(pixels.shape[1] * scale)), max(1, round(pixels.shape[0] * scale))
+        pixels = cv2.resize(pixels, (width, height), interpolation=cv2.INTER_AREA)
+    return np.ascontiguousarray(pixels)
 
 
 def parse_world(text: str, path: str | Path = "<world>") -> World:

@@ -36,6 +36,7 @@ from .sources import (
     open_source,
     read_image,
 )
+from .white_balance_filter import WhiteBalanceFilter
 
 __all__ = [
     "BinaryDetector",
@@ -62,6 +63,7 @@ __all__ = [
     "Point32",
     "Polygon",
     "VideoSource",
+    "WhiteBalanceFilter",
     "as_bgr",
     "as_gray",
     "available_feature_types",

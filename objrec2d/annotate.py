@@ -7,6 +7,8 @@ from collections.abc import Iterable
 import cv2
 import numpy as np
 
+from strictio.shown import drawable
+
 from .base import as_bgr
 from .messages import DetectedObject2D
 
@@ -25,6 +27,7 @@ def draw_objects(image: np.ndarray, objects: Iterable[DetectedObject2D], thickne
         cv2.polylines(canvas, [np.round(pts).astype(np.int32)], True, colour, thickness, cv2.LINE_AA)
         x, y = pts.min(axis=0)
         cv2.putText(
-            canvas, obj.name, (int(x), max(12, int(y) - 5)), cv2.FONT_HERSHEY_SIMPLEX, 0.5, colour, 1, cv2.LINE_AA
+            canvas, drawable(obj.name), (int(x), max(12, int(y) - 5)), cv2.FONT_HERSHEY_SIMPLEX, 0.5, colour, 1,
+            cv2.LINE_AA,
         )
     return canvas

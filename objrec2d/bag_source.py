@@ -102,4 +102,4 @@ class ImageBagSource(BagSource):
         msgtype = self.topic_info.msgtype
         for log_time, message in self.recording.messages(self.topic_info.name, self.start, self.end):
             image = decode_picture(msgtype, message)
-            yield log_time, header_stamp_ns(message, log_time), header_frame_id(message), image
+            yield log_time, header_stamp_ns(message, 0), header_frame_id(message), image

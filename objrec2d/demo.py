@@ -19,6 +19,8 @@ from typing import Any
 import cv2
 import numpy as np
 
+from strictio.shown import drawable
+
 WIDTH, HEIGHT = 640, 480
 FPS = 30.0
 
@@ -104,7 +106,8 @@ def render_pattern(width: int, height: int, seed: int = 2024) -> np.ndarray:
     for word in ("objrec", "ROS", "42", "demo", "AKAZE", "7x"):
         x, y = int(rng.integers(0, width - 40)), int(rng.integers(14, height))
         grey = 40 if rng.random() < 0.5 else 235
-        cv2.putText(pattern, word, (x, y), cv2.FONT_HERSHEY_SIMPLEX, rng.uniform(0.35, 0.8), grey, 1, cv2.LINE_AA)
+        cv2.putText(pattern, drawable(word), (x, y), cv2.FONT_HERSHEY_SIMPLEX, rng.uniform(0.35, 0.8), grey, 1,
+                    cv2.LINE_AA)
     cv2.rectangle(pattern, (0, 0), (width - 1, height - 1), 40, 2)  # a printed border
     return pattern
 

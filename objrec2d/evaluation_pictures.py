@@ -10,6 +10,7 @@ import cv2
 import numpy as np
 
 from strictio import OutputError, write_atomically
+from strictio.shown import drawable
 
 from .base import as_bgr
 from .evaluation_coco import RECALL_POINTS
@@ -46,13 +47,13 @@ def precision_recall_picture(curves: Sequence[tuple[str, np.ndarray, float]], ti
         cv2.line(canvas, at(tick, 0), at(tick, 1), GRID, 1)
         cv2.line(canvas, at(0, tick), at(1, tick), GRID, 1)
         x, y = at(tick, 0)
-        cv2.putText(canvas, f"{tick:.1f}", (x - 12, y + 20), FONT, 0.45, INK, 1, cv2.LINE_AA)
+        cv2.putText(canvas, drawable(f"{tick:.1f}"), (x - 12, y + 20), FONT, 0.45, INK, 1, cv2.LINE_AA)
         x, y = at(0, tick)
-        cv2.putText(canvas, f"{tick:.1f}", (x - 40, y + 5), FONT, 0.45, INK, 1, cv2.LINE_AA)
+        cv2.putText(canvas, drawable(f"{tick:.1f}"), (x - 40, y + 5), FONT, 0.45, INK, 1, cv2.LINE_AA)
     cv2.rectangle(canvas, at(0, 1), at(1, 0), INK, 1)
     cv2.putText(canvas, "recall", (left + plot_w // 2 - 25, height - 15), FONT, 0.6, INK, 1, cv2.LINE_AA)
     cv2.putText(canvas, "precision", (8, top - 8), FONT, 0.5, INK, 1, cv2.LINE_AA)
-    cv2.putText(canvas, title, (left, 20), FONT, 0.55, INK, 1, cv2.LINE_AA)
+    cv2.putText(canvas, drawable(title), (left, 20), FONT, 0.55, INK, 1, cv2.LINE_AA)
     for n, (name, precision, ap) in enumerate(curves):
         colour = CURVE_COLOURS[n % len(CURVE_COLOURS)]
         points = np.array([at(r, p) for r, p in zip(RECALL_POINTS, precision, strict=True) if p > -1], np.int32)
@@ -61,7 +62,7 @@ def precision_recall_picture(curves: Sequence[tuple[str, np.ndarray, float]], ti
         y = top + 20 + 24 * n
         cv2.line(canvas, (width - right + 15, y - 5), (width - right + 40, y - 5), colour, 2, cv2.LINE_AA)
         label = f"{name[:20]}  AP50 {ap:.2f}" if ap > -1 else f"{name[:20]}  no truth"
-        cv2.putText(canvas, label, (width - right + 46, y), FONT, 0.45, INK, 1, cv2.LINE_AA)
+        cv2.putText(canvas, drawable(label), (width - right + 46, y), FONT, 0.45, INK, 1, cv2.LINE_AA)
     return canvas
 
 
@@ -90,7 +91,7 @@ def frame_picture(image: np.ndarray, truth: Sequence[TruthObject2D],
         x, y = points.min(axis=0)
         _label(canvas, name, (int(x), max(14, int(y) - 6)), RED)
     band = np.full((28, canvas.shape[1], 3), 255, np.uint8)
-    cv2.putText(band, title, (6, 19), FONT, 0.5, INK, 1, cv2.LINE_AA)
+    cv2.putText(band, drawable(title), (6, 19), FONT, 0.5, INK, 1, cv2.LINE_AA)
     return np.vstack([band, canvas])
 
 
@@ -101,5 +102,5 @@ def _line(canvas: np.ndarray, points: np.ndarray, colour: tuple[int, int, int]) 
 
 
 def _label(canvas: np.ndarray, text: str, at: tuple[int, int], colour: tuple[int, int, int]) -> None:
-    cv2.putText(canvas, text, at, FONT, 0.5, RIM, 3, cv2.LINE_AA)
-    cv2.putText(canvas, text, at, FONT, 0.5, colour, 1, cv2.LINE_AA)
+    cv2.putText(canvas, drawable(text), at, FONT, 0.5, RIM, 3, cv2.LINE_AA)
+    cv2.putText(canvas, drawable(text), at, FONT, 0.5, colour, 1, cv2.LINE_AA)

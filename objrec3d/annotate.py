@@ -14,6 +14,8 @@ from typing import Any
 import cv2
 import numpy as np
 
+from strictio.shown import drawable
+
 from .cloud import PointCloud, as_cloud
 from .messages import DetectedObject3D
 
@@ -119,7 +121,7 @@ def _put_label(image: np.ndarray, text: str, anchor: tuple[int, int], placed: li
                ) -> None:
     """Write ``text`` centred over ``anchor`` on a dark strip, moved up (or down) until it overlaps no label
     already ``placed``: neighbouring objects' labels stay readable."""
-    (w, h), base = cv2.getTextSize(text, _FONT, _SCALE, 1)
+    (w, h), base = cv2.getTextSize(drawable(text), _FONT, _SCALE, 1)
     height, width = image.shape[:2]
     x = int(np.clip(anchor[0] - w // 2, 2, max(2, width - w - 2)))
     y = max(anchor[1], h + 4)
@@ -135,7 +137,7 @@ def _put_label(image: np.ndarray, text: str, anchor: tuple[int, int], placed: li
             break
     box = (x - 2, y - h - 2, x + w + 2, y + base + 2)
     image[max(box[1], 0):box[3], max(box[0], 0):box[2]] //= 3  # a darkened strip under the text
-    cv2.putText(image, text, (x, y), _FONT, _SCALE, (0, 255, 255), 1, cv2.LINE_AA)
+    cv2.putText(image, drawable(text), (x, y), _FONT, _SCALE, (0, 255, 255), 1, cv2.LINE_AA)
     placed.append(box)
 
 

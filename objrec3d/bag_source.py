@@ -175,7 +175,7 @@ class CloudBagSource(BagSource):
         if self.info_topic is None:
             for log_time, message in self.recording.messages(self.topic_info.name, self.start, self.end):
                 cloud = pointcloud2_cloud(message)
-                yield log_time, header_stamp_ns(message, log_time), header_frame_id(message), cloud
+                yield log_time, header_stamp_ns(message, 0), header_frame_id(message), cloud
             return
         yield from self._depth_frames()
 
@@ -187,7 +187,7 @@ class CloudBagSource(BagSource):
 
         def make(log_time: int, depth: Any, depth_info: Any, color: Any) -> Decoded:
             cloud = depth_image_cloud(depth, depth_info, color)
-            return log_time, header_stamp_ns(depth, log_time), header_frame_id(depth), cloud
+            return log_time, header_stamp_ns(depth, 0), header_frame_id(depth), cloud
 
         def nearest(stamp: float, later: tuple[float, Any] | None) -> Any:
             return nearest_by_stamp(stamp, (previous, later))

@@ -219,9 +219,10 @@ def render_scene(options: SceneOptions, rng: np.random.Generator) -> tuple[Point
 
 
 def _sense(o: np.ndarray, d: np.ndarray, t: np.ndarray, rot: np.ndarray, colors: np.ndarray, noise: float,
-           dropout: float, rng: np.random.Generator) -> PointCloud:
+           dropout: float, rng: np.random.Generator, depth_noise: float | None = None) -> PointCloud:
     """What the depth camera returns for ray hits at depth ``t``: shading, depth noise growing with the square
-    of the depth, returns missing at random, at grazing angles and in blobs."""
+    of the depth, returns missing at random, at grazing angles and in blobs. ``depth_noise``: sigma = this x
+    z^2 (x ``noise``) instead of the Kinect model's 1.2 mm + 1.9 mm x (z - 0.4)^2."""
     # Incidence: estimate the surface normal from the depth image to drop grazing returns.
     hit_world = o + t[:, None] * d
     grid = np.where(np.isfinite(t), 1.0, np.nan)[:, None] * (hit_world - o) @ rot.T  # camera frame
@@ -239,7 +240,8 @@ def _sense(o: np.ndarray, d: np.ndarray, t: np.ndarray, rot: np.ndarray, colors:
     colors = np.clip(colors * shade[:, None] + rng.normal(0, 4, colors.shape), 0, 255)
 
     depth = grid[:, 2]
-    sigma = noise * (0.0012 + 0.0019 * (depth - 0.4) ** 2)
+    sigma = (noise * (0.0012 + 0.0019 * (depth - 0.4) ** 2) if depth_noise is None
+             else noise * depth_noise * np.nan_to_num(depth, nan=0.0) ** 2)
     factor = 1.0 + rng.normal(0.0, 1.0, depth.shape) * sigma / np.where(depth > 0, depth, 1.0)
     points = grid * factor[:, None]
     missing = ~np.isfinite(depth) | (rng.random(depth.shape) < dropout)
@@ -255,6 +257,26 @@ def _sense(o: np.ndarray, d: np.ndarray, t: np.ndarray, rot: np.ndarray, colors:
     cloud = PointCloud(points.astype(np.float32), colors.astype(np.uint8), WIDTH, HEIGHT)
 
     return cloud
+
+
+def _flying_pixels(depth: np.ndarray, rng: np.random.Generator, share: float = 0.5) -> tuple[np.ndarray, np.ndarray]:
+    """Depths with flying pixels: a pixel next to a farther one (a jump of over 2 % of its depth, or to nothing)
+    returns, with probability ``share``, a depth between its own and its neighbour's, as a time-of-flight or
+    stereo camera mixes the two at an edge. Returns the new depths (flat) and where the flying pixels are."""
+    grid = depth.reshape(HEIGHT, WIDTH)
+    out = grid.copy()
+    finite = np.isfinite(grid)
+    flying = np.zeros_like(finite)
+    for axis, shift in ((0, 1), (0, -1), (1, 1), (1, -1)):
+        other = np.roll(grid, shift, axis=axis)
+        far = np.where(np.isfinite(other), other, grid + 0.3)
+        with np.errstate(invalid="ignore"):  # inf - inf where neither pixel sees anything
+            jump = finite & ~flying & (far - grid > np.maximum(0.02 * grid, 0.01))
+        chosen = jump & (rng.random(grid.shape) < share)
+        with np.errstate(invalid="ignore"):
+            out = np.where(chosen, grid + rng.uniform(0.1, 0.9, grid.shape) * (far - grid), out)
+        flying |= chosen
+    return out.reshape(-1), flying.reshape(-1)
 
 
 def random_options(rng: np.random.Generator, *, hard: bool = True) -> SceneOptions:
@@ -288,14 +310,19 @@ def demo_scene(seed: int = 0, frame: int = 0) -> tuple[PointCloud, DemoTruth]:
 
 
 def shape_scene(rng: np.random.Generator, distance: float, *, cylinders: int = 2, spheres: int = 1,
-                radii: tuple[float, float] = (0.012, 0.08), noise: float = 1.0) -> tuple[PointCloud, DemoTruth,
-                                                                                      np.ndarray]:
+                radii: tuple[float, float] = (0.012, 0.08), noise: float = 1.0, hard: bool = False
+                ) -> tuple[PointCloud, DemoTruth, np.ndarray]:
     """A table seen from ``distance`` metres (to the middle of the objects, 35 degrees from above) with
     upright cylinders and spheres of random radii side by side on it, for accuracy tests at any range.
 
     Returns the cloud, the truth and, per point, the index of the truth shape it shows (-1: table or nothing),
     so a test can count each object's visible points after any filter. Nothing lies beyond the table.
-    """
+
+    ``hard``: as a robot's camera sees a table (issue 24): depth noise 1.5 mm x z^2, flying pixels (half of
+    the pixels at a depth jump return a depth between the object and what is behind it; labelled -1), every
+    other cylinder lying on the table (axis along it, pointing away from the camera within 25 degrees) and
+    one or two boxes nearer the camera (clutter, not in the truth). The same ``rng`` gives the same scene;
+    without ``hard`` the draws and the scenes are those of before."""
     pitch = math.radians(35.0)
     options = SceneOptions(camera_height=distance * math.sin(pitch), camera_distance=distance * math.cos(pitch),
                            noise=noise, dropout=0.02)
@@ -310,6 +337,7 @@ def shape_scene(rng: np.random.Generator, distance: float, *, cylinders: int = 2
     spread = min(0.12 * distance, 0.25)  # side by side across the view, a little apart in depth
     shapes_world = []
     x = -0.5 * spread * (len(kinds) - 1)
+    lying = False
     for k in order:
         r = float(rng.uniform(*radii))
         center_xy = (x + rng.uniform(-0.02, 0.02), rng.uniform(-0.05, 0.05))
@@ -318,18 +346,36 @@ def shape_scene(rng: np.random.Generator, distance: float, *, cylinders: int = 2
             h = float(rng.uniform(2.0, 4.0) * r + 0.03)
             center = np.array([*center_xy, 0.5 * h])
             axis = np.array([0.0, 0.0, 1.0])
+            if hard and lying:  # every other cylinder lies on the table, pointing away within 25 degrees
+                yaw = float(rng.uniform(-math.radians(25.0), math.radians(25.0)))  # (its slot is across the view)
+                axis = np.array([math.sin(yaw), math.cos(yaw), 0.0])
+                center = np.array([*center_xy, r])
+            lying = not lying
             surfaces.append((_hit_cylinder(eye, d, center, axis, r, h), (200, 40, 40)))
             shapes_world.append(("cylinder", center, r, axis, h))
         else:
             center = np.array([*center_xy, r])
             surfaces.append((_hit_sphere(eye, d, center, r), (40, 60, 200)))
             shapes_world.append(("sphere", center, r, None, 2 * r))
+    boxes = 0
+    if hard:  # clutter beside the row of objects, nearer the camera: boxes are no object
+        for _ in range(int(rng.integers(1, 3))):
+            half = rng.uniform([0.02, 0.02, 0.02], [0.06, 0.04, 0.07])
+            where = np.array([rng.uniform(-spread, spread), -0.12 - 0.5 * spread * rng.random(), half[2]])
+            yaw = rng.uniform(0.0, math.pi)
+            box_rot = np.array([[math.cos(yaw), -math.sin(yaw), 0], [math.sin(yaw), math.cos(yaw), 0], [0, 0, 1]])
+            surfaces.append((_hit_box(eye, d, where, box_rot, half), (120, 160, 90)))
+            boxes += 1
     depths = np.stack([s[0] for s in surfaces])
     nearest = np.argmin(depths, axis=0)
     t = depths[nearest, np.arange(d.shape[0])]
     colors = np.array([s[1] for s in surfaces], dtype=np.float64)[nearest]
-    cloud = _sense(eye, d, t, rot, colors, noise, 0.02, rng)
     labels = np.where(np.isfinite(t), nearest - 1, -1)
+    labels[labels >= len(shapes_world)] = -1  # the boxes
+    if hard:
+        t, flying = _flying_pixels(t, rng)
+        labels[flying] = -1
+    cloud = _sense(eye, d, t, rot, colors, noise, 0.02, rng, depth_noise=0.0015 if hard else None)
     truth = DemoTruth()
     truth.table_normal = rot @ np.array([0.0, 0.0, 1.0])
     truth.table_offset = float(-truth.table_normal @ (rot @ (np.zeros(3) - eye)))

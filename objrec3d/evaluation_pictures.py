@@ -10,6 +10,7 @@ import cv2
 import numpy as np
 
 from strictio import write_atomically
+from strictio.shown import drawable
 
 from .annotate import render_cloud
 from .cloud import as_cloud
@@ -39,7 +40,7 @@ def histogram(values: list[float], title: str, unit: str, scale: float = 1.0, si
     and 90th percentile (red) marked; signed ones (a bias shows) their median and the zero line (grey)."""
     w, h = size
     panel = np.full((h, w, 3), 255, np.uint8)
-    cv2.putText(panel, title, (10, 20), _FONT, 0.5, (0, 0, 0), 1, cv2.LINE_AA)
+    cv2.putText(panel, drawable(title), (10, 20), _FONT, 0.5, (0, 0, 0), 1, cv2.LINE_AA)
     left, right, top, bottom = 45, w - 15, 35, h - 40
     cv2.line(panel, (left, bottom), (right, bottom), (0, 0, 0), 1)
     cv2.line(panel, (left, top), (left, bottom), (0, 0, 0), 1)
@@ -68,13 +69,15 @@ def histogram(values: list[float], title: str, unit: str, scale: float = 1.0, si
         cv2.line(panel, (x, top), (x, bottom), colour, 1)
         if name == "0":
             continue  # the zero line: the axis says where 0 is
-        cv2.putText(panel, f"{name} {value:.3g}", (min(x + 3, right - 90), top + (12 if name == "median" else 28)),
+        cv2.putText(panel, drawable(f"{name} {value:.3g}"),
+                    (min(x + 3, right - 90), top + (12 if name == "median" else 28)),
                     _FONT, 0.4, colour, 1, cv2.LINE_AA)
     for value in (lo, 0.5 * (lo + hi), hi):
-        cv2.putText(panel, f"{value:.3g}", (x_of(value) - 12, bottom + 15), _FONT, 0.4, (0, 0, 0), 1, cv2.LINE_AA)
-    cv2.putText(panel, unit, (right - 60, bottom + 32), _FONT, 0.4, (0, 0, 0), 1, cv2.LINE_AA)
-    cv2.putText(panel, str(peak), (5, top + 5), _FONT, 0.4, (0, 0, 0), 1, cv2.LINE_AA)
-    cv2.putText(panel, f"n={v.size}", (left + 5, bottom + 32), _FONT, 0.4, (0, 0, 0), 1, cv2.LINE_AA)
+        cv2.putText(panel, drawable(f"{value:.3g}"), (x_of(value) - 12, bottom + 15), _FONT, 0.4, (0, 0, 0), 1,
+                    cv2.LINE_AA)
+    cv2.putText(panel, drawable(unit), (right - 60, bottom + 32), _FONT, 0.4, (0, 0, 0), 1, cv2.LINE_AA)
+    cv2.putText(panel, drawable(str(peak)), (5, top + 5), _FONT, 0.4, (0, 0, 0), 1, cv2.LINE_AA)
+    cv2.putText(panel, drawable(f"n={v.size}"), (left + 5, bottom + 32), _FONT, 0.4, (0, 0, 0), 1, cv2.LINE_AA)
     return panel
 
 
@@ -94,10 +97,10 @@ def confusion_picture(evaluation: ShapeEvaluation) -> np.ndarray:
                     np.uint8)
     cv2.putText(image, "truth \\ detected", (5, 20), _FONT, 0.45, (0, 0, 0), 1, cv2.LINE_AA)
     for j, name in enumerate(CONFUSION_COLUMNS):
-        cv2.putText(image, name, (head + j * cw + 8, head - 15), _FONT, 0.45, (0, 0, 0), 1, cv2.LINE_AA)
+        cv2.putText(image, drawable(name), (head + j * cw + 8, head - 15), _FONT, 0.45, (0, 0, 0), 1, cv2.LINE_AA)
     for i, name in enumerate(CONFUSION_ROWS):
         y = head + i * ch
-        cv2.putText(image, name, (5, y + 25), _FONT, 0.45, (0, 0, 0), 1, cv2.LINE_AA)
+        cv2.putText(image, drawable(name), (5, y + 25), _FONT, 0.45, (0, 0, 0), 1, cv2.LINE_AA)
         total = max(int(evaluation.confusion[i].sum()), 1)
         for j in range(len(CONFUSION_COLUMNS)):
             n = int(evaluation.confusion[i, j])
@@ -108,7 +111,7 @@ def confusion_picture(evaluation: ShapeEvaluation) -> np.ndarray:
             x = head + j * cw
             cv2.rectangle(image, (x, y), (x + cw - 2, y + ch - 2), colour, -1)
             cv2.rectangle(image, (x, y), (x + cw - 2, y + ch - 2), (180, 180, 180), 1)
-            cv2.putText(image, str(n), (x + 10, y + 26), _FONT, 0.55, (0, 0, 0), 1, cv2.LINE_AA)
+            cv2.putText(image, drawable(str(n)), (x + 10, y + 26), _FONT, 0.55, (0, 0, 0), 1, cv2.LINE_AA)
     return image
 
 
@@ -138,7 +141,7 @@ def _draw_box(image: np.ndarray, corners: np.ndarray, intrinsics: tuple[float, f
     for a, b in _EDGES:
         cv2.line(image, (int(pts[a][0]), int(pts[a][1])), (int(pts[b][0]), int(pts[b][1])), colour, 2, cv2.LINE_AA)
     anchor = pts[np.argmax(pts[:, 1])] + (0, 16) if below else pts[np.argmin(pts[:, 1])] - (0, 6)
-    cv2.putText(image, label, (int(anchor[0]) - 30, int(anchor[1])), _FONT, 0.45, colour, 1, cv2.LINE_AA)
+    cv2.putText(image, drawable(label), (int(anchor[0]) - 30, int(anchor[1])), _FONT, 0.45, colour, 1, cv2.LINE_AA)
 
 
 def worst_frame_picture(frame: object, truths: list[TruthShape], detections: list[DetectedObject3D],
@@ -149,7 +152,7 @@ def worst_frame_picture(frame: object, truths: list[TruthShape], detections: lis
     for obj in detections:
         _draw_box(image, obj.box.corners(), intrinsics, DETECTION_COLOUR, obj.name, below=False)
     cv2.rectangle(image, (0, 0), (image.shape[1], 24), (0, 0, 0), -1)
-    cv2.putText(image, caption, (6, 17), _FONT, 0.5, (255, 255, 255), 1, cv2.LINE_AA)
+    cv2.putText(image, drawable(caption), (6, 17), _FONT, 0.5, (255, 255, 255), 1, cv2.LINE_AA)
     return image
 
 

@@ -50,6 +50,12 @@ class ShapeSettings:
     #: Lower the normals' weight where they scatter (see ``_noise_weighted``): for normals from neighbourhoods
     #: of unorganized points; an image grid's normals are smoothed over a fixed window and stay steady.
     noise_weighted: bool = False
+    #: The depth noise model: sigma = depth_noise x range^2 (metres at 1 m; 0: none). A point's cost is divided
+    #: by max(1, NOISE_SIGMAS x sigma / threshold) (``noise_scale``): far points, as noisy as a small object's
+    #: radius is large, are weighed by what the sensor can tell there instead of being cut at a fixed threshold.
+    depth_noise: float = 0.0
+    #: Where the sensor was, in the coordinates of the points scored (``ransac_shape`` shifts both).
+    sensor: np.ndarray | None = None
 
 
 @dataclass
@@ -67,6 +73,10 @@ class ShapeFit:
     inliers: np.ndarray
     cost: float
     iterations: int = 0
+    #: False when the final least-squares fit was skipped (``ransac_shape``'s ``worth_polishing`` said no).
+    polished: bool = True
+    #: The normal's weight the inliers were chosen with (lowered where the normals scatter, ``_noise_weighted``).
+    normal_weight: float = 0.0
 
 
 @dataclass
@@ -76,6 +86,22 @@ class PlaneFit:
     normal: np.ndarray
     offset: float
     inliers: np.ndarray  # boolean mask over the points searched
+
+
+#: A point within this many sigmas of the depth noise at its range is as good as one within the threshold.
+NOISE_SIGMAS = 2.0
+
+
+def noise_scale(settings: ShapeSettings, points: np.ndarray) -> np.ndarray | None:
+    """Per point, what its cost is divided by under the depth noise model (None: 1 everywhere): 1 where the
+    noise is small against the threshold (within about 1.8 m for 1.5 mm x z^2 and a 1 cm threshold), growing
+    with the square of the range beyond."""
+    if settings.depth_noise <= 0 or settings.sensor is None:
+        return None
+    rel = points - settings.sensor
+    sigma = settings.depth_noise * np.einsum("ij,ij->i", rel, rel)
+    scale = np.maximum(1.0, (NOISE_SIGMAS / settings.threshold) * sigma)
+    return None if not (scale > 1.0).any() else scale
 
 
 def required_iterations(inlier_ratio: float, sample_size: int, probability: float) -> float:
@@ -153,9 +179,10 @@ def fit_plane(
 # -- spheres and cylinders -------------------------------------------------------------------------------
 def _costs(
     shape: str, centers: np.ndarray, axes: np.ndarray | None, radii: np.ndarray, pts: np.ndarray, nrm: np.ndarray,
-    pts_sq: np.ndarray, nrm_dot_pts: np.ndarray, weight: float,
+    pts_sq: np.ndarray, nrm_dot_pts: np.ndarray, weight: float, scale: np.ndarray | None = None,
 ) -> np.ndarray:
-    """Per-point cost for H models x M points (H x M), with matrix products only."""
+    """Per-point cost for H models x M points (H x M), with matrix products only; divided by ``scale`` (M, the
+    depth noise model's, ``noise_scale``) when given."""
     cp = pair_dots(centers, pts)  # H x M
     v2 = pts_sq[None, :] - 2.0 * cp + (centers * centers).sum(axis=1)[:, None]
     nv = nrm_dot_pts[None, :] - pair_dots(centers, nrm)  # n . (p - c)
@@ -171,7 +198,10 @@ def _costs(
     cos = nr / dist
     np.clip(cos, -1.0, 1.0, out=cos)
     angle = np.arccos(cos)
-    return weight * angle + (1.0 - weight) * np.abs(dist - radii[:, None])
+    cost = weight * angle + (1.0 - weight) * np.abs(dist - radii[:, None])
+    if scale is not None:
+        cost /= scale
+    return cost
 
 
 Hypotheses = tuple[np.ndarray, np.ndarray | None, np.ndarray]  # centres, axes (None: spheres), radii
@@ -237,25 +267,38 @@ def _pair_sampler(points: np.ndarray, cell: float, rng: np.random.Generator
 def ransac_shape(
     points: np.ndarray, normals: np.ndarray, settings: ShapeSettings, rng: np.random.Generator,
     origin: np.ndarray | None = None,
+    worth_polishing: Callable[[ShapeFit, np.ndarray], bool] | None = None,
 ) -> ShapeFit | None:
     """The best sphere or cylinder of ``settings`` among ``points`` (N x 3) with unit ``normals``, or None.
-    ``origin``: where the sensor was (the final fit weighs each point's error along its ray from there)."""
+    ``origin``: where the sensor was (the final fit weighs each point's error along its ray from there).
+    ``worth_polishing(fit, points)``: asked before the final fit (``polish``, most of a search's time) with
+    the refined fit and the points it indexes; when it says no, the refined fit is returned as it is, marked
+    ``polished`` False (a caller rejects it anyway: the final fit moves a model by millimetres, it does not
+    turn a sliver into an object)."""
     n = points.shape[0]
     if n < 2:
         return None
     shift = points.mean(axis=0)
     local = (points - shift).astype(np.float32)
     nrm = normals.astype(np.float32)
+    if settings.depth_noise > 0 and origin is not None:  # the noise model, in the shifted coordinates
+        settings = dataclasses.replace(settings, sensor=np.asarray(origin, dtype=np.float64) - shift)
     m = min(n, _SUBSAMPLE)
     pick = rng.choice(n, size=m, replace=False) if n > m else np.arange(n)
     sp, sn = local[pick], nrm[pick]
     sp_sq, sn_dot = (sp * sp).sum(axis=1), (sn * sp).sum(axis=1)
+    sp_scale = noise_scale(settings, sp)
     make = _sphere_hypotheses if settings.shape == "sphere" else _cylinder_hypotheses
     draw = _pair_sampler(local, 2.0 * max(settings.max_radius, settings.threshold), rng)
     t = settings.threshold
     best_cost, best = math.inf, None
     done, needed = 0, math.inf
     while done < min(needed, settings.max_iterations):
+        # Tried for speed and dropped (issue 24): a first batch of 128 and last batches only as large as the
+        # draws still needed, and a stopping rule that counts the second point drawn from the first's cell
+        # (needing a third of the draws on clutter). Each saved milliseconds a search, and each let a box face
+        # or a flat patch through as a cylinder on the hard and fresh scenes (test_3d_hard_demo.py,
+        # test_3d_small_far.py): the judge's limits were set on the fits these draws find.
         batch = min(_BATCH, settings.max_iterations - done)
         i, j = draw(batch)
         done += batch
@@ -263,7 +306,7 @@ def ransac_shape(
         centers, axes, radii = make(local[i[ok]], nrm[i[ok]], local[j[ok]], nrm[j[ok]], settings)
         if radii.size == 0:
             continue
-        cost = _costs(settings.shape, centers, axes, radii, sp, sn, sp_sq, sn_dot, settings.normal_weight)
+        cost = _costs(settings.shape, centers, axes, radii, sp, sn, sp_sq, sn_dot, settings.normal_weight, sp_scale)
         inlier = cost < t
         msac = np.where(inlier, cost, t).sum(axis=1)
         k = int(np.argmin(msac))
@@ -281,10 +324,14 @@ def ransac_shape(
     fit = _refine(settings, pts64, nrm64, center, axis, radius, rounds=2)
     if fit is None:
         return None
-    sensor = None if origin is None else np.asarray(origin, dtype=np.float64) - shift
-    fit = polish(settings, pts64, nrm64, fit, origin=sensor)
+    if worth_polishing is not None and not worth_polishing(fit, pts64):
+        fit.polished = False
+    else:
+        sensor = None if origin is None else np.asarray(origin, dtype=np.float64) - shift
+        fit = polish(settings, pts64, nrm64, fit, origin=sensor)
     fit.center = fit.center + shift
     fit.iterations = done
+    fit.normal_weight = settings.normal_weight
     return fit
 
 
@@ -347,7 +394,7 @@ def full_costs(settings: ShapeSettings, points: np.ndarray, normals: np.ndarray,
     """Each point's cost under one model (N)."""
     return _costs(settings.shape, center[None, :], None if axis is None else axis[None, :], np.array([radius]),
                   points, normals, (points * points).sum(axis=1), (normals * points).sum(axis=1),
-                  settings.normal_weight)[0]
+                  settings.normal_weight, noise_scale(settings, points))[0]
 
 
 def _msac(costs: np.ndarray, t: float) -> float:
@@ -381,12 +428,16 @@ def _refine(settings: ShapeSettings, pts: np.ndarray, nrm: np.ndarray, center: n
     step = max(1, pts.shape[0] // _REFINE_SCORED)
     all_pts, all_nrm = pts, nrm
     pts, nrm = pts[::step], nrm[::step]  # evenly thinned: the ranking of a few proposals needs no more
+    scale = noise_scale(settings, pts)
+    reach = t if scale is None else t * scale
 
     def cost(c: np.ndarray, a: np.ndarray | None, r: float) -> tuple[float, np.ndarray]:
         dist, cos = _residuals(pts, nrm, c, a, r)
         eligible = cos > _SUPPORT_COS
         combined = settings.normal_weight * np.arccos(np.clip(cos, -1.0, 1.0)) + (1 - settings.normal_weight) * dist
-        return float(np.minimum(combined, t).sum()), eligible & (dist < t)
+        if scale is not None:
+            combined /= scale
+        return float(np.minimum(combined, t).sum()), eligible & (dist < reach)
 
     score, support = cost(center, axis, radius)
     for _ in range(rounds):
@@ -673,20 +724,46 @@ def _ray_residuals(pts: np.ndarray, rays: np.ndarray, center: np.ndarray, radius
     return np.where(disc >= 0.0, along, _SIDEWAYS_WEIGHT * miss)
 
 
+def _ray_residuals_jacobian(pts: np.ndarray, rays: np.ndarray, center: np.ndarray, radius: float
+                            ) -> tuple[np.ndarray, np.ndarray]:
+    """``_ray_residuals`` and their derivatives by the centre's coordinates and the radius (N x (k+1)), in
+    closed form: the depth error t solves |p - c + t ray|^2 = r^2, so dt/dc = g / (g . ray) and dt/dr =
+    r / (g . ray) with g = p - c + t ray (implicit differentiation); a miss's derivatives are those of its
+    sideways distance. One evaluation per Gauss-Newton step instead of k + 2 for a numerical Jacobian: the
+    final fit of a far object was a third of a whole detection."""
+    rel = pts - center
+    a = np.maximum(np.einsum("ij,ij->i", rays, rays), 1e-12)
+    b = np.einsum("ij,ij->i", rays, rel)
+    q = np.einsum("ij,ij->i", rel, rel)
+    disc = b * b - a * (q - radius * radius)
+    root = np.sqrt(np.maximum(disc, 0.0))
+    near, far = (-b - root) / a, (-b + root) / a
+    use_near = np.abs(near) <= np.abs(far)
+    along = np.where(use_near, near, far)
+    hit = disc >= 0.0
+    side = rel - (b / a)[:, None] * rays
+    side_length = np.maximum(np.sqrt(np.einsum("ij,ij->i", side, side)), 1e-12)
+    residual = np.where(hit, along, _SIDEWAYS_WEIGHT * (side_length - radius))
+    # g . ray = a t + b = -root (near crossing) or +root (far): floored so that a grazing ray (a tangent, where
+    # the derivative is unbounded) stays a steep but finite row, as a finite difference would make it.
+    floor = 1e-3 * max(radius, 1e-9) * np.sqrt(a)
+    grazing = np.where(use_near, -1.0, 1.0) * np.maximum(root, floor)
+    g = rel + along[:, None] * rays
+    k = pts.shape[1]
+    jac = np.empty((pts.shape[0], k + 1))
+    jac[:, :k] = np.where(hit[:, None], g / grazing[:, None], -_SIDEWAYS_WEIGHT * side / side_length[:, None])
+    jac[:, k] = np.where(hit, radius / grazing, -_SIDEWAYS_WEIGHT)
+    return residual, jac
+
+
 def _ray_fit(pts: np.ndarray, rays: np.ndarray, center: np.ndarray, radius: float, iterations: int = 12
              ) -> tuple[np.ndarray, float] | None:
-    """Centre and radius minimising the points' errors along their rays (Gauss-Newton, numerical Jacobian):
-    the maximum-likelihood circle or sphere under depth noise."""
+    """Centre and radius minimising the points' errors along their rays (Gauss-Newton): the maximum-likelihood
+    circle or sphere under depth noise."""
     k = pts.shape[1]
     x = np.concatenate([np.asarray(center, dtype=np.float64), [float(radius)]])
-    step_size = 1e-6
     for _ in range(iterations):
-        f0 = _ray_residuals(pts, rays, x[:k], x[k])
-        jac = np.empty((pts.shape[0], k + 1))
-        for j in range(k + 1):
-            dx = np.zeros(k + 1)
-            dx[j] = step_size
-            jac[:, j] = (_ray_residuals(pts, rays, (x + dx)[:k], x[k] + dx[k]) - f0) / step_size
+        f0, jac = _ray_residuals_jacobian(pts, rays, x[:k], x[k])
         try:
             step, *_ = np.linalg.lstsq(jac, -f0, rcond=None)
         except np.linalg.LinAlgError:

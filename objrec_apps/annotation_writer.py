@@ -1,8 +1,10 @@
 """Writes annotated frames: a video when the path names one, otherwise a folder of numbered PNGs.
 
-A video is written through ``strictio.video.VideoFile``, which watches the file grow and reads the frame count
-back at close, since OpenCV's writer reports no write error; a video short of frames, or a picture that cannot
-be written, is a ``strictio.OutputError`` saying how many frames are readable.
+A video is written under a temporary name and renamed at the end, or after a failure where any of its frames
+can be read: a full disk never leaves a video none of whose frames plays. It goes through
+``strictio.video.VideoFile``, which watches the file grow and reads the frame count back at close, since
+OpenCV's writer reports no write error; a video short of frames, or a picture that cannot be written, is a
+``strictio.OutputError`` saying how many frames are readable.
 """
 
 from __future__ import annotations
@@ -20,11 +22,13 @@ from strictio import OutputError
 from strictio.atomic import is_read_only, remove_stale_temporaries, temporary_path
 from strictio.video import VIDEO_CODECS, VideoFile, readable_frames
 
-__all__ = ["IMAGE_SUFFIXES", "VIDEO_CODECS", "AnnotationError", "AnnotationWriter", "readable_frames"]
+__all__ = ["IMAGE_SUFFIXES", "PICTURE_NAMES", "VIDEO_CODECS", "AnnotationError", "AnnotationWriter", "readable_frames"]
 
 log = logging.getLogger(__name__)
 
 IMAGE_SUFFIXES = {".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff", ".webp"}
+#: The names of the pictures in a folder of them (a glob).
+PICTURE_NAMES = "frame_*.png"
 
 
 class AnnotationError(RuntimeError):
@@ -49,12 +53,14 @@ class AnnotationWriter:
             raise AnnotationError(
                 f"{self.path}: names one picture; give a folder (one PNG per frame) or a video (.avi, .mp4)"
             )
+        self._temporary: Path | None = None
         if self.is_video:
             self._check_video_target()
             try:
                 self.path.parent.mkdir(parents=True, exist_ok=True)
             except OSError as exc:
                 raise AnnotationError(f"{self.path}: cannot create the folder {self.path.parent}: {exc}") from None
+            remove_stale_temporaries(self.path.parent)
         else:
             try:
                 self.path.mkdir(parents=True, exist_ok=True)
@@ -80,13 +86,16 @@ class AnnotationWriter:
         if self.is_video:
             height, width = image.shape[:2]
             if self._video is None:
-                self._video = VideoFile(self.path, self.fps, (width, height))
+                self._temporary = temporary_path(self._real_path, self.path.suffix)
+                self._video = VideoFile(self._temporary, self.fps, (width, height), shown_as=self.path)
             if (width, height) != self._video.size:  # a video has one frame size; keep it
                 image = cv2.resize(image, self._video.size)
+            video = self._video
             try:
-                self._video.write(image)
+                video.write(image)
             except OutputError as exc:
                 self._video, self._failure = None, exc  # released and counted already: close has nothing to do
+                self._settle(readable_frames(video.path, video.frames))
                 raise
         else:
             self._write_picture(self.path / f"frame_{self.count:06d}.png", image)
@@ -110,5 +119,33 @@ class AnnotationWriter:
     def close(self) -> None:
         """Finish the video and check it: OutputError if fewer frames than were given can be read back."""
         video, self._video = self._video, None
-        if video is not None:
+        if video is None:
+            return
+        try:
             video.close()
+        except OutputError:
+            self._settle(readable_frames(video.path, video.frames))
+            raise
+        self._settle(video.frames)
+
+    @property
+    def _real_path(self) -> Path:
+        return Path(os.path.realpath(self.path))
+
+    def _settle(self, readable: int) -> None:
+        """The video, written under a temporary name, renamed to its own where any frame of it can be read;
+        removed where none can."""
+        temporary, self._temporary = self._temporary, None
+        if temporary is None:
+            return
+        if readable > 0:
+            try:
+                os.replace(temporary, self._real_path)  # a link keeps pointing at the video it names
+                return
+            except OSError as exc:
+                with contextlib.suppress(OSError):
+                    os.unlink(temporary)
+                raise OutputError(self.path, f"cannot be written: {exc.strerror or exc}") from None
+        with contextlib.suppress(OSError):
+            os.unlink(temporary)
+        log.debug("%s: no frame readable, nothing kept", self.path)

@@ -43,10 +43,21 @@ from objrec_core import (
 )
 from strictio import InputError, OutputError, write_atomically
 from strictio.cli_numbers import CommandLineParser, Number
-from strictio.shown import printable
+from strictio.output_paths import RunFiles
+from strictio.shown import escape_controls, printable
 from strictio.signals import handling, raise_interrupt
 
-from .batch_worker import CANCELLED, FAILED, FORMATS, STOPPED, SourceResult, one_line, output_names, run_source
+from .batch_worker import (
+    CANCELLED,
+    FAILED,
+    FORMATS,
+    STOPPED,
+    SourceResult,
+    one_line,
+    output_names,
+    run_source,
+    worker_deaths,
+)
 from .cli import (
     INTERRUPTED,
     MAX_FRAMES,
@@ -60,6 +71,7 @@ from .cli import (
     run_command,
 )
 from .outputs import check_topic, default_topic, require_rosbags
+from .scheduler_probe import DEFAULT_TIMEOUT, SchedulerUnusable, probe
 
 log = logging.getLogger("objrec.batch")
 PROG = "objrec-batch"
@@ -68,7 +80,8 @@ EXIT_OK = 0
 EXIT_FAILED = 1
 EXIT_INTERRUPTED = INTERRUPTED
 SUMMARY = "summary.csv"
-SUMMARY_FIELDS = ("source", "output", "frames", "frames_with_objects", "objects", "frames_per_s", "seconds", "status")
+SUMMARY_FIELDS = ("source", "output", "frames", "frames_with_objects", "objects", "frames_per_s", "seconds", "status",
+                  "runs")
 #: Worker processes each get one core: libraries' own thread pools would otherwise oversubscribe the machine
 #: (Dask already sets OMP/MKL/OpenBLAS to one thread; OpenCV's pthreads pool reads this one).
 WORKER_ENV = {"OPENCV_FOR_THREADS_NUM": "1"}
@@ -79,8 +92,8 @@ ABANDONED = "abandoned"
 ALLOWED_FAILURES = 1
 #: How long running sources get to stop after Ctrl-C before they are abandoned.
 STOP_SECONDS = 20.0
-#: How long to wait for an existing scheduler to answer.
-CONNECT_TIMEOUT = "10s"
+#: How long an existing scheduler gets to accept the connection, and again to answer it (--scheduler-timeout).
+SCHEDULER_TIMEOUT = Number(0.1, 600.0)
 #: Worker processes of a local cluster: each is a whole interpreter with the libraries loaded.
 WORKERS = Number(1, 256, whole=True)
 
@@ -125,6 +138,9 @@ exit codes:
                         f"{WORKERS.describe()})")
     parser.add_argument("--scheduler", metavar="ADDRESS",
                         help="run on an existing Dask scheduler (tcp://host:8786) instead of a local cluster")
+    parser.add_argument("--scheduler-timeout", type=SCHEDULER_TIMEOUT, default=DEFAULT_TIMEOUT, metavar="SECONDS",
+                        help=f"how long the scheduler gets to accept the connection and to answer it (default "
+                        f"{DEFAULT_TIMEOUT:g}; {SCHEDULER_TIMEOUT.describe()})")
     parser.add_argument("--format", "-f", choices=tuple(FORMATS), default="jsonl",
                         help="output format: JSON Lines (default) or MCAP typed messages (needs the ros extra)")
     parser.add_argument("--max-frames", "-n", type=MAX_FRAMES, metavar="N",
@@ -207,8 +223,29 @@ def make_plan(params: str, specs: Sequence[str], out: str, fmt: str = "jsonl", m
         outputs = output_names(specs, FORMATS[fmt], schemes)
     except SourceError as exc:
         raise UserError(str(exc)) from None
+    _check_outputs(params, specs, worker_specs, out, outputs, FORMATS[fmt], schemes)
     return Plan(os.path.abspath(params), list(specs), worker_specs, _check_out_dir(out), outputs, fmt, max_frames,
                 topic, frame_id, system.object_name)
+
+
+def _check_outputs(params: str, specs: Sequence[str], worker_specs: Sequence[str], out: str, outputs: Sequence[str],
+                   suffix: str, schemes: set[str]) -> None:
+    """The output rule of every command (strictio.output_paths), before anything is made: no output of a source
+    is an input (``--format mcap`` into the folder of the source ``.mcap``), a link out of ``--out`` (which
+    would truncate a file elsewhere), read-only (refused as root too) or a FIFO; OutputError naming it."""
+    files = RunFiles().reads(params, "the parameter file")
+    for spec, worker_spec in zip(specs, worker_specs, strict=True):
+        path = SourceSpec.parse(worker_spec, schemes).path
+        files.reads(path, f"the source {spec}")
+    folder = Path(out).expanduser()
+    if not folder.is_dir() and not folder.parent.is_dir():
+        return  # nothing there yet to protect: _check_out_dir says why the folder cannot be made, or makes it
+    if folder.exists() and not folder.is_dir():
+        return  # a file where the folder should be: _check_out_dir's own message
+    files.writes("--out", folder, folder=True, names=f"*{suffix}")
+    for spec, name in zip(specs, outputs, strict=True):
+        files.writes(f"the output of {spec}", folder / name, inside=folder, stream=suffix == ".jsonl")
+    files.writes("the summary", folder / SUMMARY, inside=folder)
 
 
 # -- running it on Dask ----------------------------------------------------------------------------------------
@@ -233,6 +270,20 @@ def _quiet_dask() -> None:
     reaches the local workers too (they read Dask's configuration when they start)."""
     os.environ.setdefault("DASK_LOGGING__DISTRIBUTED", "warning")
     logging.getLogger("distributed").setLevel(logging.WARNING)
+    for name in ("distributed.nanny", "distributed.scheduler"):
+        logger = logging.getLogger(name)
+        if not any(isinstance(f, _SaidInTheSummary) for f in logger.filters):
+            logger.addFilter(_SaidInTheSummary())
+
+
+class _SaidInTheSummary(logging.Filter):
+    """Drops Dask's own lines about a worker process that died (the nanny restarting it, the scheduler giving
+    up on a task): the source's row and its error line say it, naming the source."""
+
+    def filter(self, record: logging.LogRecord) -> bool:
+        text = str(record.msg)
+        return not (text.startswith("Restarting worker") or "workers died while trying to run it" in text
+                    or "marked as failed because" in text)
 
 
 def _size(spec: str) -> int:
@@ -258,9 +309,9 @@ def _quiet_worker_shutdown() -> None:
     logging.getLogger("distributed.worker").setLevel(logging.ERROR)
 
 
-def _check_address(address: str) -> None:
-    """A scheduler address Dask can parse, refused before connecting (a client failing on a malformed
-    address hangs on its way out)."""
+def _check_address(address: str) -> tuple[str, str]:
+    """A scheduler address Dask can parse, as (scheme, location), refused before connecting (a client failing
+    on a malformed address hangs on its way out)."""
     from distributed.comm.addressing import parse_address
     from distributed.comm.registry import get_backend
 
@@ -273,45 +324,128 @@ def _check_address(address: str) -> None:
         raise UserError(f"--scheduler {address}: not a scheduler address: no host (e.g. tcp://host:8786)")
     if scheme == "inproc":
         raise UserError(f"--scheduler {address}: an inproc address is only reachable inside its own process")
+    return scheme, location
 
 
 @contextlib.contextmanager
-def _client(scheduler: str | None, workers: int) -> Iterator[tuple[Any, int]]:
-    """A Dask client on a new local cluster or an existing scheduler, closed (cluster and all) on the way out."""
+def _client(scheduler: str | None, workers: int, timeout: float = DEFAULT_TIMEOUT) -> Iterator[tuple[Any, int]]:
+    """A Dask client on a new local cluster or an existing scheduler, and its workers, closed (cluster and all)
+    on the way out; Dask's scratch space is the batch's own and goes with it."""
     _quiet_dask()
     from distributed import Client, LocalCluster
 
     cluster = None
-    if scheduler:
-        _check_address(scheduler)
-        failure = ""
+    with _scratch_space() as scratch:
+        if scheduler:
+            client = _connect(scheduler, timeout)
+        else:
+            with _workers_ignore_ctrl_c():
+                # No dashboard; the scheduler's small HTTP server (health, metrics) on a free local port, so
+                # that another cluster on 8787 costs no warning. Workers spill and lock in our scratch folder.
+                cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
+                                       dashboard_address=None, local_directory=scratch,
+                                       scheduler_kwargs={"dashboard_address": "127.0.0.1:0",
+                                                         "allowed_failures": ALLOWED_FAILURES},
+                                       silence_logs=logging.WARNING, env=WORKER_ENV)
+            client = Client(cluster, set_as_default=False)
         try:
-            client = Client(scheduler, timeout=CONNECT_TIMEOUT, set_as_default=False)
-        except (OSError, ValueError, TypeError) as exc:
-            failure = " ".join(str(exc).split()) or type(exc).__name__
-        if failure:
-            # Outside the except block, so that the half-made client (held by the traceback) is collected now,
-            # while its event loop still runs; at interpreter exit its close would hang for a minute.
-            gc.collect()
-            raise UserError(f"--scheduler {scheduler}: cannot connect: {failure}")
-    else:
-        with _workers_ignore_ctrl_c():
-            # No dashboard; the scheduler's small HTTP server (health, metrics) on a free local port, so that
-            # another cluster on 8787 costs no warning.
-            cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, dashboard_address=None,
-                                   scheduler_kwargs={"dashboard_address": "127.0.0.1:0",
-                                                     "allowed_failures": ALLOWED_FAILURES},
-                                   silence_logs=logging.WARNING, env=WORKER_ENV)
-        client = Client(cluster, set_as_default=False)
+            count = len(client.scheduler_info().get("workers", {})) if scheduler else workers
+            yield client, count
+        finally:
+            with contextlib.suppress(Exception):  # closing after a Ctrl-C may find connections already gone
+                client.close()
+            if cluster is not None:
+                with contextlib.suppress(Exception):
+                    cluster.close()
+
+
+@contextlib.contextmanager
+def _scratch_space() -> Iterator[str]:
+    """A temporary folder of this batch for Dask's scratch space and its lock files (``dask-scratch-space/``,
+    ``global.lock``, ``purge.lock``), removed with everything in it when the batch ends: Dask's own default
+    is a shared folder in the temp folder that every run left behind."""
+    import dask
+
+    # A worker holds only the source it runs (saturation 1.0, Dask's default queues a second one on it): a
+    # worker that dies takes no queued source down with it, to fail later as if it had crashed it.
+    with tempfile.TemporaryDirectory(prefix="objrec-batch-") as scratch, \
+            dask.config.set({"temporary-directory": scratch, "distributed.scheduler.worker-saturation": 1.0}):
+        yield scratch
+
+
+def _connect(scheduler: str, timeout: float) -> Any:
+    """A client of an existing scheduler, or a UserError saying why not, within about ``timeout`` seconds: the
+    address is probed first (:mod:`.scheduler_probe`: refused, silent, another protocol, another user's),
+    then Dask's client gets the same deadline for its own connection."""
+    from distributed import Client
+
+    scheme, location = _check_address(scheduler)
     try:
-        count = len(client.scheduler_info().get("workers", {})) if scheduler else workers
-        yield client, count
-    finally:
-        with contextlib.suppress(Exception):  # closing after a Ctrl-C may find connections already gone
-            client.close()
-        if cluster is not None:
-            with contextlib.suppress(Exception):
-                cluster.close()
+        probe(scheduler, scheme, location, timeout)
+    except SchedulerUnusable as exc:
+        raise UserError(f"--scheduler {scheduler}: cannot use it: {exc}") from None
+    failure = ""
+    try:
+        client = Client(scheduler, timeout=f"{timeout}s", set_as_default=False)
+    except (OSError, ValueError, TypeError, MemoryError) as exc:
+        failure = " ".join(str(exc).split()) or type(exc).__name__
+    if failure:
+        # Outside the except block, so that the half-made client (held by the traceback) is collected now,
+        # while its event loop still runs; at interpreter exit its close would hang for a minute.
+        gc.collect()
+        raise UserError(f"--scheduler {scheduler}: cannot connect: {failure}")
+    info = client.scheduler_info()
+    log.info("joined scheduler %s at %s (%d workers)", info.get("id", "?"), info.get("address", scheduler),
+             len(info.get("workers", {})))
+    return client
+
+
+def _worker_deaths(client: Any, key: str) -> int:
+    """How many worker processes died while the scheduler had given them the task ``key`` (Dask's count of
+    "suspicious" deaths); 0 when the scheduler cannot be asked (a remote one without objrec)."""
+    try:
+        return int(client.run_on_scheduler(worker_deaths, key))
+    except Exception:  # the count is a note in the summary, never a reason to lose a row
+        return 0
+
+
+def _killed_status(output: Path, fmt: str, runs: int, deaths: int) -> str:
+    """The status of a source whose worker processes kept dying: run (``runs`` times; its output is kept, with
+    the frames written before the last death) or never started (the deaths were another source's, with it
+    queued on the same worker); a source that never started gets an empty JSON Lines output, as every failed
+    source has one."""
+    times = "twice" if deaths == 2 else f"{deaths} times" if deaths > 2 else "again"
+    if runs:
+        kept = f"; {output.name} keeps the frames done before" if output.exists() else ""
+        return (f"{FAILED}: its worker process died running it, {'twice' if runs == 2 else f'{runs} times'} (a "
+                f"crash in a library reading it, or out of memory){kept}")
+    if fmt == "jsonl":
+        with contextlib.suppress(OSError):
+            output.touch(exist_ok=True)
+    return (f"{FAILED}: never started: the worker processes given it died {times}, running other sources "
+            "(a crash in a library, or out of memory)")
+
+
+class _Starts:
+    """How many times each source was started: every run of a source puts its output name in a Dask queue of
+    this batch as it starts (:func:`.batch_worker.run_source`), so a source run again after its worker died
+    says so in the summary, and one that never started is told from one that crashed."""
+
+    def __init__(self, client: Any, name: str) -> None:
+        from distributed import Queue
+
+        self.name = name
+        self._queue = Queue(name, client=client)
+        self._counts: dict[str, int] = {}
+
+    def of(self, output: str) -> int:
+        """The starts of the source writing ``output`` so far (0 when the queue cannot be read)."""
+        try:
+            for started in self._queue.get(batch=True):
+                self._counts[started] = self._counts.get(started, 0) + 1
+        except Exception:  # a count for the summary, never a reason to lose a row
+            log.debug("cannot read the start queue", exc_info=True)
+        return self._counts.get(output, 0)
 
 
 class _Bar:
@@ -338,7 +472,7 @@ class _Bar:
 
 
 def run_batch(plan: Plan, workers: int | None = None, scheduler: str | None = None,
-              progress: bool | None = False) -> BatchOutcome:
+              progress: bool | None = False, timeout: float = DEFAULT_TIMEOUT) -> BatchOutcome:
     """Run every source of ``plan`` on Dask and collect the rows, in the order the sources were given.
 
     Ctrl-C (KeyboardInterrupt, SIGTERM in the command) asks the running sources to stop after their current
@@ -351,7 +485,7 @@ def run_batch(plan: Plan, workers: int | None = None, scheduler: str | None = No
         outcome.notes.append("--workers is ignored with --scheduler: the scheduler's workers run the sources")
     workers = min(workers or default_workers(), len(plan.specs))
     start = time.perf_counter()
-    with _client(scheduler, workers) as (client, count):
+    with _client(scheduler, workers, timeout) as (client, count):
         outcome.workers = count
         if scheduler and count == 0:
             outcome.notes.append(f"{scheduler} has no workers yet; the sources wait for some to join")
@@ -360,13 +494,15 @@ def run_batch(plan: Plan, workers: int | None = None, scheduler: str | None = No
         from distributed import Event, as_completed
         from distributed.scheduler import KilledWorker
 
-        stop = Event(f"objrec-batch-stop-{uuid.uuid4().hex}", client=client)
+        batch_id = uuid.uuid4().hex
+        stop = Event(f"objrec-batch-stop-{batch_id}", client=client)
+        starts = _Starts(client, f"objrec-batch-starts-{batch_id}")
         work_start = time.perf_counter()
         index = {}
         for i, (spec, name) in enumerate(zip(plan.worker_specs, plan.outputs, strict=True)):
             future = client.submit(
                 run_source, plan.params, spec, str(plan.out_dir / name), plan.fmt, plan.max_frames, plan.topic,
-                plan.frame_id, stop.name, key=f"objrec-batch-{i}-{name}", pure=False, retries=0,
+                plan.frame_id, stop.name, starts.name, key=f"objrec-batch-{i}-{name}", pure=False, retries=0,
                 priority=_size(spec),
             )
             index[future] = i
@@ -380,9 +516,11 @@ def run_batch(plan: Plan, workers: int | None = None, scheduler: str | None = No
                 try:
                     results[i] = future.result()
                     results[i].source = plan.specs[i]  # as the user named it (the worker had it absolute)
+                    results[i].runs = max(1, starts.of(plan.outputs[i]))
                 except KilledWorker:
-                    results[i].status = (f"{FAILED}: its worker process died running it (a crash in a library "
-                                         "reading it, or out of memory)")
+                    results[i].runs = starts.of(plan.outputs[i])
+                    results[i].status = _killed_status(plan.out_dir / plan.outputs[i], plan.fmt, results[i].runs,
+                                                       _worker_deaths(client, future.key))
                 except Exception as exc:  # the task could not run at all (objrec missing on a remote worker)
                     results[i].status = f"{FAILED}: {one_line(exc)}"
                 # Let the worker forget the row: a worker that dies later would otherwise make the scheduler
@@ -420,9 +558,11 @@ TABLE_HEADINGS = ("source", "output", "frames", "with objects", "objects", "fram
 
 
 def format_table(results: Sequence[SourceResult]) -> str:
-    """The summary as an aligned text table (numbers right-aligned)."""
+    """The summary as an aligned text table (numbers right-aligned); names shown escaped (a control character
+    or a byte that is not UTF-8 in a file name can neither break a row nor reach the terminal raw)."""
     rows = [TABLE_HEADINGS] + [
-        (r.source, r.output, str(r.frames), str(r.frames_with_objects), str(r.objects), f"{r.rate:.1f}", r.status)
+        (escape_controls(r.source), escape_controls(r.output), str(r.frames), str(r.frames_with_objects),
+         str(r.objects), f"{r.rate:.1f}", escape_controls(r.shown_status))
         for r in results
     ]
     widths = [max(len(row[c]) for row in rows) for c in range(len(TABLE_HEADINGS))]
@@ -464,7 +604,7 @@ def run(args: argparse.Namespace, stdout: IO[str]) -> int:
                      args.frame_id)
     try:
         with handling(raise_interrupt, (signal.SIGTERM,)):  # SIGTERM as Ctrl-C: cancel what is left, still summarize
-            outcome = run_batch(plan, args.workers, args.scheduler, args.progress)
+            outcome = run_batch(plan, args.workers, args.scheduler, args.progress, args.scheduler_timeout)
     except KeyboardInterrupt:  # while the cluster was starting: nothing ran
         outcome = BatchOutcome([SourceResult(s, n, status=CANCELLED) for s, n in zip(plan.specs, plan.outputs,
                                                                                         strict=True)],

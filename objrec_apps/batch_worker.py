@@ -57,6 +57,7 @@ class SourceResult:
     objects: int = 0
     seconds: float = 0.0
     status: str = OK
+    runs: int = 1  # 2: its first worker process died under it (or under the source before it) and it ran again
 
     @property
     def rate(self) -> float:
@@ -65,6 +66,14 @@ class SourceResult:
     @property
     def ok(self) -> bool:
         return self.status == OK
+
+    @property
+    def shown_status(self) -> str:
+        """The status as the table shows it: a source that ran again after a worker died says so."""
+        if self.runs > 1 and not self.status.startswith(FAILED):
+            times = "twice" if self.runs == 2 else f"{self.runs} times"
+            return f"{self.status} (run {times}: a worker process died under it)"
+        return self.status
 
     def to_row(self) -> dict[str, Any]:
         """The summary.csv row (frames/s rounded, as the table shows it)."""
@@ -80,6 +89,13 @@ def one_line(exc: BaseException) -> str:
     if not text or isinstance(exc, AssertionError | KeyError | IndexError | TypeError | ValueError | AttributeError):
         text = f"{type(exc).__name__}: {text}" if text else type(exc).__name__
     return text
+
+
+def worker_deaths(key: str, dask_scheduler: Any = None) -> int:
+    """Run on the scheduler (``Client.run_on_scheduler``): how many worker processes died while they held the
+    task ``key`` (Dask's ``suspicious`` count; 0 for a task it no longer knows)."""
+    task = dask_scheduler.tasks.get(key) if dask_scheduler is not None else None
+    return int(getattr(task, "suspicious", 0) or 0)
 
 
 # -- output names ---------------------------------------------------------------------------------------------
@@ -154,6 +170,16 @@ class _StopFlag:
         return self._set
 
 
+def _note_start(queue: str, output: str) -> None:
+    """Tell the batch this source starts (``starts_queue``: a Dask queue it counts, see batch._Starts)."""
+    try:
+        from distributed import Queue
+
+        Queue(queue).put(output)
+    except Exception:  # a note for the summary, never a reason to fail the source
+        log.debug("cannot note the start of %s", output, exc_info=True)
+
+
 # -- one source ------------------------------------------------------------------------------------------------
 def _open_output(path: Path, fmt: str, array_type: type[DetectedObjectArray], topic: str | None,
                  object_name: str) -> Output:
@@ -178,6 +204,7 @@ def run_source(
     topic: str | None = None,
     frame_id: str = "camera",
     stop_event: str | None = None,
+    starts_queue: str | None = None,
 ) -> SourceResult:
     """Run the parameter file's system over one source into ``output``; never raises for a bad source.
 
@@ -188,6 +215,7 @@ def run_source(
 
     ``stop_event`` names the Dask Event the batch sets when interrupted: the source then ends after the frame
     in hand (status "stopped", its output closed properly), or is not started at all ("cancelled").
+    ``starts_queue`` names the Dask queue that counts each start of a source (a worker that died under it).
     """
     _worker_logging()
     result = SourceResult(spec, Path(output).name)
@@ -196,6 +224,8 @@ def run_source(
     if stop is not None and stop.is_set():
         result.status = CANCELLED
         return result
+    if starts_queue:
+        _note_start(starts_queue, result.output)
     try:
         system = build_system(params)
         detections: Output | None = None

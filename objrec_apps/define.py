@@ -159,7 +159,7 @@ def run(args: argparse.Namespace) -> int:
     application.setOrganizationName("objrec")
     from objrec_apps.gui import DefinitionGUI
 
-    window = DefinitionGUI(system, source=source, view_mode=args.view, paused=args.paused)
+    window = DefinitionGUI(system, source=source, view_mode=args.view, paused=args.paused, first_frame=True)
     if path is not None:
         window.files.remember_folder(path)
         window.files.set_path(path)

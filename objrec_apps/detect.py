@@ -5,8 +5,10 @@ Exit codes: 0 done (also after Ctrl-C or SIGTERM, with everything written so far
 output completed); 1 a source that breaks mid-stream; 2 a user mistake (bad parameter file, option out of
 its range, a source that cannot be opened or yields not even one frame, an input refused anywhere in the run
 such as a frame over a declared limit, a detector that cannot detect, such as a feature detector without a
-target) and any output that cannot be written (a full disk, a closed device; a typed output that cannot be
-written is left out entirely, what the other outputs got so far is kept); 130 interrupted while starting.
+target), an output path refused before anything is written (the source or the parameter file, also through a
+link; a read-only file, also as root; a FIFO: :mod:`strictio.output_paths`) and any output that cannot be
+written (a full disk, a closed device; a typed output that cannot be written is left out entirely, what the
+other outputs got so far is kept); 130 interrupted while starting.
 """
 
 from __future__ import annotations
@@ -33,11 +35,11 @@ from objrec_core import (
 )
 from strictio import InputError, OutputError
 from strictio.cli_numbers import CommandLineParser, check_limit_settings
-from strictio.shown import printable
+from strictio.shown import printable, valid_text
 from strictio.signals import StopSignals
 
 from . import explain, live_outputs, outputs
-from .annotation_writer import AnnotationError
+from .annotation_writer import PICTURE_NAMES, VIDEO_CODECS, AnnotationError
 from .cli import (
     MAX_FRAMES,
     MESSAGE_LIMIT,
@@ -51,6 +53,7 @@ from .cli import (
 from .detection_outputs import OUTPUT_OPTION, DetectionLines, TypedDetections
 from .foxglove_view import FoxgloveView, add_foxglove_argument
 from .output_contract import Ending, Output, RunEnd, close_outputs
+from .run_files import detection_inputs, source_outputs
 from .side_outputs import Pictures, Reasons, RerunRecording
 
 log = logging.getLogger("objrec.detect")
@@ -156,6 +159,8 @@ def _open(args: argparse.Namespace) -> tuple[DetectionDirector, FrameSource, Kin
 
 def _check_output_options(args: argparse.Namespace) -> None:
     """The output options that can be judged before anything is opened."""
+    if valid_text(args.frame_id) != args.frame_id:  # bytes that are not UTF-8: no ROS message can carry them
+        raise UserError(f"--frame-id {printable(args.frame_id)}: not UTF-8 text, which a ROS frame_id must be")
     for option, targets in ((live_outputs.PUBLISH_OPTION, args.publish),
                             (live_outputs.ANNOTATED_OPTION, args.publish_annotated)):
         for target in targets:
@@ -193,6 +198,25 @@ def _check_explain(args: argparse.Namespace) -> None:
         return
     if Path(args.explain).resolve() == Path(args.output).resolve():
         raise UserError(f"--explain={args.explain}: the same file as --output; give the reasons a file of their own")
+
+
+def _check_output_paths(args: argparse.Namespace) -> None:
+    """Every output path judged against the run's inputs before anything is opened or written
+    (:mod:`strictio.output_paths`): none may replace the parameter file or the source, be read-only, a FIFO."""
+    files = detection_inputs(args.params, args.source)
+    if args.output:
+        typed = outputs.is_typed_output(args.output)
+        bag_folder = typed and Path(args.output).suffix.lower() not in (".mcap", ".bag")
+        files.writes(OUTPUT_OPTION, args.output, folder=bag_folder, stream=not typed)
+    if args.explain not in (None, explain.STDERR):
+        files.writes(explain.OPTION, args.explain, stream=True)
+    if args.rerun and args.rerun != "spawn":
+        files.writes("--rerun", args.rerun)
+    if args.annotate:
+        video = Path(args.annotate).suffix.lower() in VIDEO_CODECS
+        files.writes("--annotate", args.annotate, folder=not video, names=PICTURE_NAMES)
+    for option, path in source_outputs(args.source):
+        files.writes(option, path)
 
 
 @dataclass(frozen=True)
@@ -269,6 +293,7 @@ def run(args: argparse.Namespace, stdout: IO[str]) -> int:
         return _list_topics(args, stdout)
     _check_output_options(args)
     _check_explain(args)
+    _check_output_paths(args)
     director, source, kind = _open(args)
     inputs = RunInputs(args, director, source, kind, stdout)
     opened: list[Output] = []

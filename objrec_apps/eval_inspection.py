@@ -28,6 +28,7 @@ from navigation.world import World, WorldError, load_world
 from objrec_core.evaluation import Evaluation
 from strictio import InputError, read_text
 from strictio.cli_numbers import Number, fields
+from strictio.shown import drawable
 
 from .cli import UserError
 from .inspection import InspectionError, changed_world
@@ -140,14 +141,14 @@ class Confusion(Evaluation):
         for k, name in enumerate(names):
             y0 = k * block
             cells = self.matrix(None if name == "all" else name)
-            cv2.putText(img, name, (8, y0 + 18), font, 0.55, (0, 0, 0), 1, cv2.LINE_AA)
+            cv2.putText(img, drawable(name), (8, y0 + 18), font, 0.55, (0, 0, 0), 1, cv2.LINE_AA)
             cv2.putText(img, "truth \\ verdict", (8, y0 + top - 6), font, 0.35, (60, 60, 60), 1, cv2.LINE_AA)
             for c, verdict in enumerate(VERDICTS):
-                cv2.putText(img, verdict.replace("_", " "), (left + c * cell + 4, y0 + top - 6), font, 0.38,
+                cv2.putText(img, drawable(verdict.replace("_", " ")), (left + c * cell + 4, y0 + top - 6), font, 0.38,
                             (60, 60, 60), 1, cv2.LINE_AA)
             for r, truth in enumerate(TRUE_STATES):
                 y = y0 + top + r * cell
-                cv2.putText(img, truth, (8, y + cell // 2 + 5), font, 0.45, (60, 60, 60), 1, cv2.LINE_AA)
+                cv2.putText(img, drawable(truth), (8, y + cell // 2 + 5), font, 0.45, (60, 60, 60), 1, cv2.LINE_AA)
                 row_total = sum(cells.get((truth, v), 0) for v in VERDICTS)
                 for c, verdict in enumerate(VERDICTS):
                     n = cells.get((truth, verdict), 0)
@@ -157,7 +158,7 @@ class Confusion(Evaluation):
                     x = left + c * cell
                     cv2.rectangle(img, (x, y), (x + cell - 2, y + cell - 2), colour, -1)
                     cv2.rectangle(img, (x, y), (x + cell - 2, y + cell - 2), (215, 215, 215), 1)
-                    cv2.putText(img, str(n), (x + cell // 2 - 8, y + cell // 2 + 6), font, 0.6, (0, 0, 0), 1,
+                    cv2.putText(img, drawable(str(n)), (x + cell // 2 - 8, y + cell // 2 + 6), font, 0.6, (0, 0, 0), 1,
                                 cv2.LINE_AA)
         path = Path(folder) / "inspection-confusion.png"
         ok, png = cv2.imencode(".png", img)

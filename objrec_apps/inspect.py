@@ -21,9 +21,12 @@ from foxgloveio.server import FoxgloveUnavailable, add_foxglove_argument
 from navigation.cli import COORDINATE, LAPS, TIME_LIMIT, YAW, format_summary
 from navigation.diagram import write_diagram
 from navigation.geometry import Pose2D
+from navigation.maps import load_map_metadata
+from navigation.runner import Summary
 from navigation.sim_options import add_simulation_options, simulation_config
 from strictio import InputError, OutputError
 from strictio.cli_numbers import CommandLineParser, Number, check_limit_settings, fields
+from strictio.output_paths import RunFiles
 from strictio.signals import StopSignals
 
 from .cli import USER_ERROR, configure_logging, report
@@ -70,22 +73,75 @@ def build_parser() -> argparse.ArgumentParser:
 
 def _open(args: argparse.Namespace) -> Inspection:
     out = Path(args.out)
+    _named_files(args).writes("--out", out, folder=True, names=None)  # before the folder is made
     try:
         out.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
         raise InspectionError(f"{out}: cannot be created: {exc.strerror or exc}") from None
     config = simulation_config(args)
-    return open_inspection(args.mission, args.map, args.world, remove=args.remove,
-                           shift=[(name, dx, dy) for name, dx, dy in args.shift],
-                           config=config, start=Pose2D(*args.start) if args.start else None, laps=args.laps,
-                           out_dir=out)
+    inspection = open_inspection(args.mission, args.map, args.world, remove=args.remove,
+                                 shift=[(name, dx, dy) for name, dx, dy in args.shift],
+                                 config=config, start=Pose2D(*args.start) if args.start else None, laps=args.laps,
+                                 out_dir=out)
+    _check_output_paths(args, inspection)
+    _warn_unreachable_goals(inspection)
+    return inspection
 
 
-def _verdict_lines(inspection: Inspection) -> list[str]:
+def _warn_unreachable_goals(inspection: Inspection) -> None:
+    """Warn, as objrec-patrol does, about a goal the robot cannot stand on: off the map, in one of its
+    obstacles, or in an object or obstacle of the world it drives in. Its goal will be aborted."""
+    radius = inspection.sim.config.robot.radius
+    for i, goal in enumerate(inspection.machine.goals):
+        inside = inspection.world.colliding(goal.x, goal.y, radius)
+        if inside:
+            log.warning("goal POSE_%d (%.2f, %.2f) is inside %s of the world; it will be aborted", i, goal.x,
+                        goal.y, ", ".join(repr(name) for name in inside))
+        elif inspection.sim.field.collides(goal.x, goal.y, radius):
+            log.warning("goal POSE_%d (%.2f, %.2f) is off the map or in an obstacle; it will be aborted",
+                        i, goal.x, goal.y)
+
+
+#: What the inspection writes into ``--out`` (besides ``photos/``), each checked before the run.
+OUT_FILES = ("events.jsonl", "report.json", "report.md", "map.png")
+
+
+def _named_files(args: argparse.Namespace) -> RunFiles:
+    """The inputs named on the command line: the mission, map and world files."""
+    return (RunFiles().reads(args.mission, "the mission file").reads(args.map, "the map file")
+            .reads(args.world, "the world file"))
+
+
+def _check_output_paths(args: argparse.Namespace, inspection: Inspection) -> None:
+    """Every output judged before anything is written (:mod:`strictio.output_paths`): none may replace the
+    mission, its pose file or a task's parameter file, the map, its image, the world file or a poster's picture;
+    none may be read-only or a FIFO, or lead out of ``--out`` through a link."""
+    mission = inspection.mission
+    files = _named_files(args).reads(mission.poses_path, "the pose file")
+    files.reads(load_map_metadata(args.map).image, "the map image")
+    world = inspection.reference
+    for thing in (*world.objects, *world.obstacles):
+        files.reads(getattr(thing, "image_path", None), f"the picture of {thing.name} in the world file")
+    for task in (task for tasks in mission.tasks for task in tasks):
+        for value in task.values.values():
+            if isinstance(value, Path):
+                files.reads(value, f"a file of the {task.kind} task")
+    out = Path(args.out)
+    files.writes("--out", out, folder=True, names=None)
+    for name in OUT_FILES:
+        files.writes(f"{name} in --out", out / name, inside=out, stream=name.endswith(".jsonl"))
+    files.writes("photos/ in --out", out / "photos", folder=True, inside=out)
+    files.writes("--diagram", args.diagram)
+
+
+def _verdict_lines(inspection: Inspection, summary: Summary) -> list[str]:
+    """One line per expected object, as the report has it (a "not checked" one says why)."""
     lines = []
-    for name, (visit, v) in inspection.report.objects.items():
+    for name, (visit, v) in inspection.report.verdicts(summary.as_dict()).items():
         where = "" if v.found is None else f" at ({v.found.x:.2f}, {v.found.y:.2f}), {v.error:.2f} m off"
-        lines.append(f"{name + ':':16s}{v.status.replace('_', ' ')}{where} (visit {visit})")
+        why = f": {v.reason}" if v.reason else ""
+        lines.append(f"{name + ':':16s}{v.status.replace('_', ' ')}{where}{why}"
+                     + ("" if visit is None else f" (visit {visit})"))
     return lines
 
 
@@ -119,7 +175,7 @@ def run(args: argparse.Namespace, early: StopSignals) -> int:
         if view is not None:
             view.close()
     written = inspection.write(summary)
-    sys.stdout.write(format_summary(summary) + "\n" + "\n".join(_verdict_lines(inspection)) + "\n")
+    sys.stdout.write(format_summary(summary) + "\n" + "\n".join(_verdict_lines(inspection, summary)) + "\n")
     sys.stdout.write(f"{'report:':16s}{written[1]}\n")
     return 0
 

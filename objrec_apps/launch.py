@@ -13,6 +13,7 @@ from __future__ import annotations
 import contextlib
 import os
 import signal
+import sys
 from collections.abc import Callable, Iterator
 from importlib import import_module
 from types import FrameType
@@ -49,11 +50,46 @@ def ending_at_once(prog: str, signals: tuple[int, ...] = START_SIGNALS) -> Itera
         yield
 
 
+#: The optional libraries and the extra that installs each (pyproject.toml); a command that meets one missing,
+#: at start or half way (the shape detector's scipy, objrec-batch's Dask), says which extra to install.
+EXTRAS = {
+    "scipy": "3d", "open3d": "3d", "pypcd4": "3d", "PySide6": "gui", "shiboken6": "gui", "rosbags": "ros",
+    "cyclonedds": "ros2", "rerun": "viz", "foxglove": "viz", "dask": "batch", "distributed": "batch",
+    "optuna": "tune",
+}
+#: Exit code of a missing extra: a user mistake, as every command documents it.
+MISSING_EXTRA = 2
+
+
+def missing_extra(exc: BaseException) -> tuple[str, str] | None:
+    """(module, extra) when ``exc`` (or what it was raised from) is a missing module of an extra, else None."""
+    seen: set[int] = set()
+    current: BaseException | None = exc
+    while current is not None and id(current) not in seen:
+        seen.add(id(current))
+        if isinstance(current, ModuleNotFoundError) and current.name:
+            top = current.name.split(".", 1)[0]
+            if top in EXTRAS:
+                return top, EXTRAS[top]
+        current = current.__cause__ or current.__context__
+    return None
+
+
 def launch(prog: str) -> int:
-    """Import the command ``prog`` while a signal ends it at once, then run its ``main``; its exit code."""
-    with ending_at_once(prog):
-        command = import_module(COMMANDS[prog])
-    return int(command.main())
+    """Import the command ``prog`` while a signal ends it at once, then run its ``main``; its exit code. A
+    missing library of an extra, met anywhere in the command, is one line naming the extra, exit code 2."""
+    try:
+        with ending_at_once(prog):
+            command = import_module(COMMANDS[prog])
+        return int(command.main())
+    except ImportError as exc:
+        missing = missing_extra(exc)
+        if missing is None:
+            raise
+        module, extra = missing
+        sys.stderr.write(f"{prog}: error: {module} is not installed: it comes with the {extra} extra: "
+                         f"pip install 'objrec[{extra}]'\n")
+        return MISSING_EXTRA
 
 
 def detect() -> int:

@@ -81,7 +81,8 @@ def input_copy(source: FrameSource) -> Any:
                         "topic to copy (give a .bag, .mcap or ROS 2 bag folder as --source)")
     extra = (getattr(source, "info_topic", None), getattr(source, "color_topic", None))  # a depth pair's
     topics = (source.topic_info.name, *(t for t in extra if t))
-    return InputCopy(Path(source.recording.path), topics, source.start, source.end)
+    # the frames' origins: detections logged beside their input messages, under their headers
+    return InputCopy(Path(source.recording.path), topics, source.start, source.end, source.origins())
 
 
 def open_typed_writer(path: str, array_type: type[DetectedObjectArray], topic: str, copy: Any = None) -> Any:

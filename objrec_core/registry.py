@@ -193,10 +193,38 @@ def _of_kind(kind: str | None) -> Callable[[str], bool] | None:
     return None if kind is None else (lambda name: name.partition(".")[0] == kind)
 
 
+#: Source plug-ins that cannot be loaded, by name, and why. Every listing of sources meets them, so a warning
+#: there put a line before every error of a command (issue 27); they are named in the error of a spec no source
+#: takes instead (the one place where a missing source matters), and logged at INFO (``--verbose``).
+_BROKEN_SOURCES: dict[str, str] = {}
+
+
+def _broken(name: str, exc: Exception) -> None:
+    if name not in _BROKEN_SOURCES:
+        log.info("%s", exc)
+    _BROKEN_SOURCES[name] = str(exc)
+
+
+def broken_sources(kind: str | None = None) -> list[str]:
+    """Why each source plug-in of a kind (or of every kind) met so far cannot be loaded."""
+    select = _of_kind(kind)
+    return [why for name, why in sorted(_BROKEN_SOURCES.items()) if select is None or select(name)]
+
+
 def source_entries(kind: str | None = None) -> dict[str, SourceEntry]:
     """The source types of a kind (or of every kind) by name, as declared: a FrameSource subclass, or a
-    DeclaredSource whose implementation is not imported. Broken entry points are logged and skipped."""
-    return SOURCES.items(_of_kind(kind))
+    DeclaredSource whose implementation is not imported. Broken entry points are skipped (see
+    :func:`broken_sources`)."""
+    select = _of_kind(kind)
+    found: dict[str, SourceEntry] = {}
+    for name in SOURCES.names():
+        if select is not None and not select(name):
+            continue
+        try:
+            found[name] = SOURCES.get(name)
+        except UnknownModuleError as exc:
+            _broken(name, exc)
+    return found
 
 
 def source_schemes(kind: str | None = None) -> set[str]:
@@ -225,7 +253,7 @@ def source_types(kind: str | None = None) -> list[type[FrameSource]]:
         try:
             klass = _implementation(name, entry)
         except UnknownModuleError as exc:
-            log.warning("%s", exc)
+            _broken(name, exc)
             continue
         if klass not in found:
             found.append(klass)
@@ -328,14 +356,16 @@ def _refuse_clashes(text: str, kind: str | None) -> None:
 
 
 def _no_source(spec: SourceSpec, kind: str | None, what: str) -> SourceError:
-    """Why no source of the kind takes a spec: another kind's, no such file, an unknown scheme or nothing."""
+    """Why no source of the kind takes a spec: another kind's, no such file, an unknown scheme or nothing; the
+    source plug-ins that cannot be loaded are named too (one of them may be the one meant)."""
     others = [k for k in source_kinds(spec.text) if k != kind] if kind else []
     if others:
         return SourceError(f"{spec.text}: a source of {', '.join(others)} data, but this pipeline works on "
                            f"{kind} data")
+    broken = broken_sources(kind)
+    usage = source_usage(kind) + ("; not loaded: " + "; ".join(broken) if broken else "")
     if spec.path is not None and not spec.path.exists():
-        return SourceError(f"{spec.text}: no such file or folder ({what}sources: {source_usage(kind)})")
+        return SourceError(f"{spec.text}: no such file or folder ({what}sources: {usage})")
     if spec.scheme is not None:
-        return SourceError(f"{spec.text}: unknown source scheme {spec.scheme}: ({what}sources: "
-                           f"{source_usage(kind)})")
-    return SourceError(f"{spec.text}: no {what}source reads this ({what}sources: {source_usage(kind)})")
+        return SourceError(f"{spec.text}: unknown source scheme {spec.scheme}: ({what}sources: {usage})")
+    return SourceError(f"{spec.text}: no {what}source reads this ({what}sources: {usage})")

@@ -26,7 +26,14 @@ from types import SimpleNamespace
 from typing import Any
 
 from objrec_core import SourceError
-from strictio import InputError, YAMLLimits, open_input, read_yaml
+from strictio import InputError, LimitError, YAMLLimits, open_input, read_yaml
+
+from .bag_metadata import MetadataError, check_metadata, compression_mode
+from .bounded import DeclaredSizeError, check_temp_space
+from .bounded import install as install_bounds
+from .definitions import DECODED_TYPES, first_difference
+from .direct import direct_reader
+from .direct import messages as direct_messages
 
 log = logging.getLogger(__name__)
 
@@ -73,6 +80,7 @@ def _rosbags(path: Path) -> SimpleNamespace:
     except ImportError:
         raise RecordingError(path, "reading ROS bags and MCAP files needs rosbags: install the ros extra "
                                    "(pip install 'objrec[ros]')") from None
+    install_bounds()  # every chunk, message and file rosbags inflates is bounded from here on
     return SimpleNamespace(AnyReader=AnyReader, Reader2=Reader2, Stores=Stores, get_typestore=get_typestore)
 
 
@@ -116,10 +124,16 @@ class Recording:
             self._reader.open()
         except FileNotFoundError:
             raise RecordingError(self.path, f"{self.format} not found") from None
+        except LimitError as exc:  # a bounded decompression refused
+            raise RecordingError(self.path, exc.message) from None
+        except DeclaredSizeError as exc:
+            raise RecordingError(self.path, f"corrupt: {exc}") from None
         except Exception as exc:  # rosbags reports a broken file with many exception types
             raise RecordingError(self.path, f"not a readable {self.format} (truncated or corrupt?): "
                                             f"{_one_line(exc)}") from None
         self._fill_types()
+        #: an uncompressed ROS 1 bag's messages are read one by one from the file (objrec_ros.direct)
+        self._direct = direct_reader(self._reader) if self.is_ros1 else None
         self._closed = False
 
     def _check_path(self) -> Path:
@@ -139,10 +153,21 @@ class Recording:
                                            "(no rosbag2_bagfile_information mapping)")
             storage = str(info.get("storage_identifier", "?"))
             self.format = f"ROS 2 bag ({storage})"
-            for name in info.get("relative_file_paths") or []:
-                file = path / Path(str(name)).name
+            try:
+                check_metadata(info)
+            except MetadataError as exc:
+                raise RecordingError(path, str(exc)) from None
+            files = [path / Path(str(name)).name for name in info["relative_file_paths"]]
+            for file in files:
                 if file.exists():
                     _check_file(file, f"storage file {file.name}")
+            if compression_mode(info) == "file" and all(f.exists() for f in files):
+                try:
+                    check_temp_space(files)  # before rosbags inflates them into the temp folder
+                except InputError as exc:
+                    raise RecordingError(path, exc.message) from None
+                except Exception as exc:  # not zstd, or truncated: what rosbags would say later, said now
+                    raise RecordingError(path, f"compressed storage files cannot be read: {_one_line(exc)}") from None
             return path
         suffix = path.suffix.lower()
         if suffix == ".bag":
@@ -241,11 +266,16 @@ class Recording:
             if decoded and not self.knows_type(info.msgtype):
                 raise RecordingError(self.path, f"topic {name}: message type {info.msgtype} is neither defined "
                                                 "in the recording nor a standard ROS type")
+            if decoded and info.msgtype in DECODED_TYPES:
+                lie = first_difference(self._reader.typestore, self._default, info.msgtype)
+                if lie:
+                    raise RecordingError(self.path, f"topic {name}: the recording defines {info.msgtype} unlike "
+                                                    f"the standard type: {lie}")
             connections.extend(c for c in self._reader.connections if c.topic == name)
         return connections
 
     def raw_messages(self, topics: str | Iterable[str], start: float | None = None, end: float | None = None,
-                     *, decodable: bool = False) -> Iterator[tuple[str, int, str, bytes]]:
+                     *, decodable: bool = False) -> Iterator[tuple[str, int, str, bytes | bytearray]]:
         """``(topic, log_time_ns, msgtype, serialized bytes)`` in log-time order, undecoded (ROS 1 or CDR
         serialization as the recording has it: ``is_ros1``). ``decodable`` first checks that the types are
         known, as decoding needs."""
@@ -256,10 +286,18 @@ class Recording:
         if not connections:
             return
         try:
-            for connection, log_time, raw in self._reader.messages(connections, start=first, stop=stop):
+            if self._direct is not None:
+                found = direct_messages(self._direct, connections, first, stop)
+            else:
+                found = self._reader.messages(connections, start=first, stop=stop)
+            for connection, log_time, raw in found:
                 yield connection.topic, int(log_time), connection.msgtype, raw
         except RecordingError:
             raise
+        except LimitError as exc:  # a bounded decompression refused
+            raise RecordingError(self.path, f"{', '.join(names)}: {exc.message}") from None
+        except DeclaredSizeError as exc:  # compressed data that does not fit what its container says
+            raise RecordingError(self.path, f"{', '.join(names)}: corrupt: {exc}") from None
         except Exception as exc:
             raise RecordingError(self.path, f"{', '.join(names)}: cannot be read further (truncated or "
                                             f"corrupt?): {_one_line(exc)}") from None

@@ -9,6 +9,7 @@ message is a :class:`DecodeError` with a one-line reason; callers add the file, 
 
 from __future__ import annotations
 
+import sys
 from collections.abc import Sequence
 from typing import Any, NamedTuple
 
@@ -32,6 +33,9 @@ IMAGE_ENCODINGS: dict[str, tuple[str, int]] = {
 SUPPORTED = "bgr8, rgb8, bgra8, rgba8, mono8, mono16, 16UC1, 32FC1, 8UC1, 8UC3, 8UC4"
 #: Encodings that hold depth (16-bit millimetres or float metres), not a picture.
 DEPTH_ENCODINGS = frozenset({"16uc1", "32fc1"})
+
+#: Points converted at a time: the temporaries of a 20-million-point cloud stay a few megabytes.
+_BLOCK_POINTS = 1 << 18
 
 #: PointField datatypes (sensor_msgs/PointField constants) as little-endian NumPy types.
 POINT_FIELD_TYPES = {1: "i1", 2: "u1", 3: "<i2", 4: "<u2", 5: "<i4", 6: "<u4", 7: "<f4", 8: "<f8"}
@@ -57,6 +61,17 @@ def _buffer(data: Any) -> np.ndarray:
     return np.frombuffer(bytes(data), dtype=np.uint8)
 
 
+def _private(buffer: np.ndarray) -> bool:
+    """Whether ``buffer`` lies in a ``bytearray`` read for this message alone (``objrec_ros.direct``), which the
+    decoders may view or reuse: a caller's own array or the recording's read-only bytes are never changed."""
+    owner: Any = buffer
+    while isinstance(owner, np.ndarray) and owner.base is not None:
+        owner = owner.base
+    if isinstance(owner, memoryview):
+        owner = owner.obj
+    return isinstance(owner, bytearray) and buffer.flags.writeable
+
+
 def _rows(data: np.ndarray, height: int, step: int, row: int, what: str) -> np.ndarray:
     """The ``row`` meaningful bytes of each of ``height`` rows ``step`` bytes apart, as a (height, row) array.
 
@@ -73,8 +88,11 @@ def _rows(data: np.ndarray, height: int, step: int, row: int, what: str) -> np.n
 
 def image_array(message: Any) -> np.ndarray:
     """A ``sensor_msgs/Image`` as an array in its own encoding: H x W (one channel) or H x W x C, dtype uint8,
-    uint16 or float32 in native byte order; ``step`` padding dropped, ``is_bigendian`` honoured. A copy, so
-    the frame owns its pixels."""
+    uint16 or float32 in native byte order; ``step`` padding dropped, ``is_bigendian`` honoured.
+
+    The frame owns its pixels: a view of the message's buffer where that buffer is the message's own (read by
+    ``objrec_ros.direct``: a 300 MB image is not copied again), else a copy (read-only bytes, a caller's
+    array, padded rows, the other byte order)."""
     encoding = encoding_of(message)
     if encoding not in IMAGE_ENCODINGS:
         raise DecodeError(f"image encoding {message.encoding!r} is not supported ({SUPPORTED})")
@@ -86,11 +104,15 @@ def image_array(message: Any) -> np.ndarray:
     row = width * channels * element.itemsize
     if step < row:
         raise DecodeError(f"step {step} is shorter than one row of {width} {message.encoding} pixels ({row} bytes)")
-    rows = _rows(_buffer(message.data), height, step, row, f"{width} x {height} {message.encoding} image")
+    buffer = _buffer(message.data)
+    rows = _rows(buffer, height, step, row, f"{width} x {height} {message.encoding} image")
     if element.itemsize > 1:
         element = element.newbyteorder(">" if message.is_bigendian else "<")
     pixels = np.ascontiguousarray(rows).view(element).reshape(height, width, channels)
-    pixels = pixels.astype(pixels.dtype.newbyteorder("="), copy=True)
+    if not pixels.dtype.isnative:
+        pixels = pixels.astype(pixels.dtype.newbyteorder("="))  # a copy in this machine's byte order
+    elif np.may_share_memory(pixels, buffer) and not _private(buffer):
+        pixels = pixels.copy()  # read-only bytes, or a caller's array: pixels of the frame's own
     return pixels[..., 0] if channels == 1 else pixels
 
 
@@ -150,7 +172,10 @@ def _field_table(message: Any) -> dict[str, tuple[int, str]]:
 def pointcloud2_arrays(message: Any) -> CloudArrays:
     """A ``sensor_msgs/PointCloud2`` with x, y, z (any numeric type, any order and padding) and optionally a
     packed ``rgb``/``rgba`` (float32 or uint32, 0x00RRGGBB as PCL packs it) or separate ``r``/``g``/``b``
-    fields. An organized cloud (height > 1) stays H x W. Big-endian data is refused."""
+    fields. An organized cloud (height > 1) stays H x W. Big-endian data is refused.
+
+    A message read by ``objrec_ros.direct`` is decoded in place: the points are packed into its own buffer (a
+    20-million-point cloud costs its 320 MB once, not again for the points), so decode such a message once."""
     if message.is_bigendian:
         raise DecodeError("big-endian PointCloud2 data (is_bigendian is set) is not supported; publish or "
                           "convert the cloud little-endian")
@@ -184,22 +209,35 @@ def pointcloud2_arrays(message: Any) -> CloudArrays:
     row = width * point_step
     if row_step < row:
         raise DecodeError(f"row_step {row_step} is shorter than a row of {width} points of {point_step} bytes")
-    rows = _rows(_buffer(message.data), height, row_step, row, f"{width} x {height} PointCloud2")
+    buffer = _buffer(message.data)
+    rows = _rows(buffer, height, row_step, row, f"{width} x {height} PointCloud2")
     layout = np.dtype({"names": names, "formats": formats, "offsets": [fields[n][0] for n in names],
                        "itemsize": point_step})
     table = np.ascontiguousarray(rows).reshape(-1).view(layout)
-    points = np.empty((n, 3), dtype=np.float32)
-    for axis, name in enumerate(("x", "y", "z")):
-        points[:, axis] = table[name]
-    colors = None
-    if colour is not None:
-        packed = table[colour]
-        colors = np.empty((n, 3), dtype=np.uint8)
-        colors[:, 0] = (packed >> 16) & 0xFF
-        colors[:, 1] = (packed >> 8) & 0xFF
-        colors[:, 2] = packed & 0xFF
-    elif "r" in names:
-        colors = np.stack([np.clip(table[c], 0, 255) for c in "rgb"], axis=-1).astype(np.uint8)
+    # A private, writable buffer (a message read by objrec_ros.direct) holds the points in place: each block of
+    # points is packed to x, y, z float32 at the buffer's start, which never reaches a point not yet read
+    # (12 bytes per point written, point_step >= 12 read). Else the points get an array of their own.
+    in_place = point_step >= 12 and sys.byteorder == "little" and np.may_share_memory(table, buffer) \
+        and _private(buffer)
+    points = buffer[: n * 12].view(np.float32).reshape(n, 3) if in_place else np.empty((n, 3), dtype=np.float32)
+    colors = None if colour is None and "r" not in names else np.empty((n, 3), dtype=np.uint8)
+    # float64 coordinates past float32's range become inf, NaN colour channels 0: a message's values, not an error
+    with np.errstate(over="ignore", invalid="ignore"):
+        for first in range(0, n, _BLOCK_POINTS):
+            block = table[first:first + _BLOCK_POINTS]
+            if colors is not None:  # before the block's points are packed over their colours
+                if colour is not None:
+                    packed = block[colour]
+                    colors[first:first + len(block), 0] = (packed >> 16) & 0xFF
+                    colors[first:first + len(block), 1] = (packed >> 8) & 0xFF
+                    colors[first:first + len(block), 2] = packed & 0xFF
+                else:
+                    colors[first:first + len(block)] = np.stack(
+                        [np.nan_to_num(np.clip(block[c], 0, 255)) for c in "rgb"], axis=-1)
+            xyz = np.empty((len(block), 3), dtype=np.float32)
+            for axis, name in enumerate(("x", "y", "z")):
+                xyz[:, axis] = block[name]
+            points[first:first + len(block)] = xyz
     if height > 1:
         points = points.reshape(height, width, 3)
         colors = None if colors is None else colors.reshape(height, width, 3)

@@ -9,6 +9,7 @@ sees the same md5sum a bag carries, a ROS 2 one the same type name.
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
@@ -59,10 +60,14 @@ class DetectionEncoder:
         self.typestore = typestore if typestore is not None else standard_typestore(ros_version)
         register_definitions(self.typestore, self.ros_type, array_type.ros_definitions)
 
-    def __call__(self, array: DetectedObjectArray) -> bytes:
-        """One array as message bytes; MessageDefinitionError naming the type for a value it cannot hold."""
+    def __call__(self, array: DetectedObjectArray, header: Mapping[str, Any] | None = None) -> bytes:
+        """One array as message bytes; MessageDefinitionError naming the type for a value it cannot hold.
+        ``header`` replaces fields of the array's header (``stamp``, ``frame_id``: an input's header copied)."""
+        data = array.to_dict()
+        if header:
+            data["header"] = {**data["header"], **header}
         try:
-            message = message_from_dict(self.typestore, self.ros_type, array.to_dict())
+            message = message_from_dict(self.typestore, self.ros_type, data)
             return serialize(self.typestore, self.ros_version, message, self.ros_type)
         except MessageDefinitionError:
             raise

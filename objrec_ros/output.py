@@ -34,7 +34,7 @@ from rosbags.interfaces import (
     Nodetype,
 )
 from rosbags.rosbag1 import Writer as Writer1
-from rosbags.rosbag2 import StoragePlugin
+from rosbags.rosbag2 import CompressionFormat, CompressionMode, StoragePlugin
 from rosbags.rosbag2 import Writer as Writer2
 from rosbags.typesys.store import Typestore
 
@@ -42,8 +42,12 @@ from objrec_core import DetectedObjectArray
 from strictio import OutputError
 from strictio.atomic import is_read_only, remove_stale_temporaries, temporary_path
 
+from .bounded import install as install_bounds
+from .direct import direct_reader
+from .direct import messages as direct_messages
 from .encode import DetectionEncoder
 from .msgdefs import standard_typestore
+from .source import Origins
 
 log = logging.getLogger(__name__)
 
@@ -83,6 +87,9 @@ class InputCopy:
     topics: tuple[str, ...]
     start: float | None = None
     end: float | None = None
+    #: The source's record of its frames' input messages (``BagSource.origins()``): with it a detection is
+    #: logged at its input's log time under its input's header, so both share one timeline.
+    origins: Origins | None = None
 
 
 class DetectionWriter:
@@ -163,6 +170,9 @@ class DetectionWriter:
                 self._writer = Writer1(inner)
             else:
                 self._writer = Writer2(inner, version=Writer2.VERSION_LATEST, storage_plugin=StoragePlugin.MCAP)
+                # zstd-compressed MCAP chunks: what ros2 bag record writes with --compression-mode storage,
+                # readable by the mcap reader and rosbags alike (the bag's metadata says no file compression)
+                self._writer.set_compression(CompressionMode.STORAGE, CompressionFormat.ZSTD)
             self._writer.open()
         except OSError as exc:
             raise OutputError(self.shown, f"cannot be written: {exc.strerror or exc}") from None
@@ -197,12 +207,21 @@ class DetectionWriter:
 
     # -- writing -----------------------------------------------------------------------------------------
     def __call__(self, array: DetectedObjectArray) -> None:
-        """Write one array as a message, logged at its header stamp (after the copied input up to then)."""
+        """Write one array as a message, logged at its header stamp (after the copied input up to then); with a
+        copied input whose source records its frames' origins, at its input message's log time and under that
+        message's header exactly (a stamp of 0 and an empty frame_id included)."""
         if self._writer is None:
             raise OutputError(self.shown, "is closed")
         stamp = array.header.to_dict()["stamp"]
         log_time = int(stamp["secs"]) * 1_000_000_000 + int(stamp["nsecs"])
-        raw = self._encoder(array)
+        header = None
+        origins = self._copy.spec.origins if self._copy is not None else None
+        origin = origins.take(log_time) if origins is not None else None
+        if origin is not None:
+            log_time = origin.log_ns
+            secs, nsecs = divmod(origin.stamp_ns, 1_000_000_000)
+            header = {"stamp": {"secs": secs, "nsecs": nsecs}, "frame_id": origin.frame_id}
+        raw = self._encoder(array, header)
         if self._copy is not None:
             self._copy.until(log_time)
         self._write(self._connection, log_time, raw)
@@ -293,6 +312,7 @@ class _InputCopy:
         self.shown = str(spec.path)
         self._pending: tuple[int, Any, Any] | None = None
         path = Path(spec.path)
+        install_bounds()  # the copy inflates the input's chunks as its source does: bounded
         try:
             self.reader = AnyReader([path], default_typestore=standard_typestore(1 if path.suffix == ".bag" else 2))
             self.reader.open()
@@ -334,7 +354,10 @@ class _InputCopy:
 
     def _iterate(self, connections: list[Connection], targets: dict[str, tuple[Any, Callable[[Any], Any] | None]],
                  start: int | None, stop: int | None) -> Iterator[tuple[int, Any, Any]]:
-        for connection, log_time, raw in self.reader.messages(connections, start=start, stop=stop):
+        direct = direct_reader(self.reader)  # an uncompressed ROS 1 bag: one message at a time, not whole chunks
+        found = (direct_messages(direct, connections, start, stop) if direct is not None
+                 else self.reader.messages(connections, start=start, stop=stop))
+        for connection, log_time, raw in found:
             target, convert = targets[connection.topic]
             yield log_time, target, raw if convert is None else convert(raw)
 

@@ -8,15 +8,19 @@ rate=R]``, or the plain path of a ``.bag``/``.mcap`` file or a ROS 2 bag folder 
   counts them; without ``end`` it reads to the end (the old ``end=0`` still does).
 - ``rate``: the replay pace against the recorded log times: 1 as recorded, 2 twice as fast, 0.5 half as fast;
   without it (the default) frames are read as fast as they are asked for, which is what a batch run wants.
-- Each frame carries the message's header stamp (its log time where the header stamp is zero) and frame_id.
+- Each frame carries the message's header stamp (its log time where the header stamp is zero) and frame_id;
+  ``origins()`` also records each frame's log time and header as recorded, for an output that copies the input.
 """
 
 from __future__ import annotations
 
 import logging
+import threading
 import time
 from abc import abstractmethod
+from collections import deque
 from collections.abc import Callable, Iterator, Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, ClassVar
 
@@ -27,8 +31,50 @@ from .decode import DecodeError
 
 log = logging.getLogger(__name__)
 
-#: One frame as a kind's source makes it: (log time ns, header stamp ns, frame_id, data).
+#: One frame as a kind's source makes it: (log time ns, header stamp ns (0 where the header has none), frame_id,
+#: data).
 Decoded = tuple[int, int, str, Any]
+
+
+@dataclass(frozen=True)
+class Origin:
+    """The input message behind a frame: its log time and its header as recorded (stamp 0 and an empty
+    frame_id kept), so that an output copying the input puts a detection on the input's timeline."""
+
+    frame_stamp_ns: int  # the frame's stamp_ns (the header stamp, or the log time where it is 0)
+    log_ns: int
+    stamp_ns: int  # the header stamp as recorded (0: none)
+    frame_id: str
+
+
+class Origins:
+    """The origins of the frames a bag source has yielded and whose detections are not written yet.
+
+    ``take(stamp_ns)`` finds the frame of a detection by its stamp (frames come in order, so everything before
+    it is dropped): the record holds only frames between the source and the writer, never the whole run."""
+
+    def __init__(self) -> None:
+        self._pending: deque[Origin] = deque()
+        self._lock = threading.Lock()
+
+    def add(self, origin: Origin) -> None:
+        with self._lock:
+            self._pending.append(origin)
+            while len(self._pending) > MAX_PENDING_ORIGINS:
+                self._pending.popleft()
+
+    def take(self, frame_stamp_ns: int) -> Origin | None:
+        with self._lock:
+            for index, origin in enumerate(self._pending):
+                if origin.frame_stamp_ns == frame_stamp_ns:
+                    for _ in range(index + 1):
+                        self._pending.popleft()
+                    return origin
+        return None
+
+
+#: Frames a source may run ahead of its detections' writer (a director's queue is far shorter).
+MAX_PENDING_ORIGINS = 1024
 
 
 def topic_names(topics: Sequence[TopicInfo]) -> str:
@@ -94,6 +140,7 @@ class BagSource(FrameSource):
             self.start: float | None = start or None
             self.end: float | None = end or None
             self._times: list[int] | None = None
+            self._origins: Origins | None = None
             self.topic_info = self._select(topic)
         except BaseException:
             self.recording.close()
@@ -208,11 +255,21 @@ class BagSource(FrameSource):
             if item[0] >= first_log:
                 yield item
 
+    def origins(self) -> Origins:
+        """From now on, record each frame's input message (for ``--copy-input``: detections at its log time,
+        under its header)."""
+        if self._origins is None:
+            self._origins = Origins()
+        return self._origins
+
     def _frames(self, first_index: int, first_log: int | None) -> Iterator[Frame]:
         index = first_index
         wall0 = log0 = None
         try:
-            for log_time, stamp, frame_id, data in self._decoded_from(first_log):
+            for log_time, header_ns, frame_id, data in self._decoded_from(first_log):
+                stamp = header_ns or log_time  # a header without a stamp: the frame is stamped at its log time
+                if self._origins is not None:
+                    self._origins.add(Origin(stamp, log_time, header_ns, frame_id))
                 if self.pace > 0:
                     if wall0 is None or log0 is None:
                         wall0, log0 = time.monotonic(), log_time

@@ -1,6 +1,8 @@
 """rerunio: where a Rerun recording goes, for every command that makes one (``--rerun FILE.rrd|spawn``).
 
-A ``.rrd`` file (its missing folders made), or a viewer started here (or already listening) on a local port.
+A ``.rrd`` file (its missing folders made; written by :mod:`rerunio.rrd_file` under a temporary name, renamed
+when the recording closes whole, removed when writing it failed, so a full disk neither hangs nor leaves a
+file), or a viewer started here (or already listening) on a local port.
 rerun-sdk is imported only when a recording is opened, so importing this needs no extra; every failure is a
 :class:`RerunUnavailable` with one line for the user. :class:`Recorder` (:mod:`rerunio.recorder`) is the base
 of every recorder: timelines, write failures noticed while recording, one close. It imports nothing of the
@@ -22,12 +24,15 @@ import time
 from pathlib import Path
 from typing import Any
 
+from strictio import OutputError
+
 from .recorder import CHECK_EVERY, Recorder
+from .rrd_file import RrdFile
 
 log = logging.getLogger(__name__)
 
-__all__ = ["CHECK_EVERY", "INSTALL_HINT", "VIEWER_PORT", "Recorder", "RerunUnavailable", "import_rerun", "open_stream",
-           "spawn_viewer"]
+__all__ = ["CHECK_EVERY", "INSTALL_HINT", "VIEWER_PORT", "Recorder", "RerunUnavailable", "file_of", "forget_file",
+           "import_rerun", "open_stream", "spawn_viewer"]
 
 INSTALL_HINT = "install objrec[viz] (pip install 'objrec[viz]')"
 #: The port ``rerun`` listens on by default; ``spawn`` starts (or reuses) a viewer there.
@@ -127,11 +132,27 @@ def open_stream(target: str | os.PathLike[str], application_id: str, blueprint: 
     path = Path(text).expanduser()
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
-        stream.save(path, default_blueprint=blueprint)
+        _FILES[id(stream)] = RrdFile(stream, path, text, blueprint)
+    except OutputError as exc:
+        raise RerunUnavailable(str(exc)) from None
     except (OSError, RuntimeError) as exc:
         reason = getattr(exc, "strerror", None) or str(exc)
         raise RerunUnavailable(f"{text}: cannot be written: {reason}") from None
     return stream
+
+
+#: The .rrd files being written, by the id of their recording stream (see :mod:`rerunio.rrd_file`).
+_FILES: dict[int, RrdFile] = {}
+
+
+def file_of(stream: Any) -> RrdFile | None:
+    """The ``.rrd`` file ``stream`` is written into (None for a viewer's stream)."""
+    return _FILES.get(id(stream))
+
+
+def forget_file(stream: Any) -> None:
+    """Drop the record of ``stream``'s file once it is finished or abandoned."""
+    _FILES.pop(id(stream), None)
 
 
 # -- geometry ---------------------------------------------------------------------------------------

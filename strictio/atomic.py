@@ -9,6 +9,9 @@ running, here or on another machine sharing the folder, are left alone.
 A streamed text output (JSON Lines, reasons, events) goes through :class:`LineOutput`: it writes whole lines
 only, and when the disk fills up in the middle of one it cuts the file back to the end of the last whole line,
 so what a failed run leaves is every line it wrote before, each one complete.
+
+Text is written as UTF-8; a lone surrogate (a name with bytes that are not UTF-8) is written as its escape
+(:func:`strictio.shown.valid_text`), so every text file the project writes is valid UTF-8.
 """
 
 from __future__ import annotations
@@ -25,6 +28,8 @@ from pathlib import Path
 
 from .errors import OutputError
 from .opener import describe_mode
+from .output_paths import is_open_descriptor
+from .shown import valid_text
 
 _TEMPORARY = re.compile(r"\..+\.saving-(?P<host>[A-Za-z0-9-]+)-(?P<pid>\d+)-[0-9a-f]{8}(\.[A-Za-z0-9]{1,8})?")
 #: This machine's name as temporaries carry it: a folder shared over the network holds the temporaries of
@@ -100,6 +105,21 @@ def check_replaceable(shown: str, target: Path) -> os.stat_result | None:
     return info
 
 
+def _check_streamable(shown: str, target: Path) -> None:
+    """What a stream of lines may not be opened on: a read-only file (by its mode bits: root too), a FIFO (the
+    open would wait for a reader for ever), a socket or a block device. A character device (a terminal,
+    ``/dev/null``) is a stream's fair target."""
+    try:
+        info = target.stat()
+    except OSError:
+        return  # missing: created; unreachable: the open says why
+    if stat.S_ISREG(info.st_mode):
+        if not info.st_mode & 0o222:
+            raise OutputError(shown, "cannot be written: the file is read-only")
+    elif not stat.S_ISCHR(info.st_mode) and not is_open_descriptor(shown):
+        raise OutputError(shown, f"cannot be written: it is {describe_mode(info.st_mode)}, not a regular file")
+
+
 def write_atomically(path: str | os.PathLike[str], data: str | bytes, *, durable: bool = True) -> None:
     """Write ``data`` to ``path`` through a temporary file in the same folder and ``os.replace``.
 
@@ -121,7 +141,7 @@ def write_atomically(path: str | os.PathLike[str], data: str | bytes, *, durable
         fd = os.open(temporary, os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_CLOEXEC", 0), 0o600)
         created = True
         with os.fdopen(fd, "wb") as stream:
-            stream.write(data.encode("utf-8") if isinstance(data, str) else data)
+            stream.write(valid_text(data).encode("utf-8") if isinstance(data, str) else data)
             stream.flush()
             if durable:
                 os.fsync(stream.fileno())
@@ -170,11 +190,16 @@ class LineOutput:
                 raise OutputError(shown, "cannot be written: it is a folder")
             if make_folders:
                 target.parent.mkdir(parents=True, exist_ok=True)
-            fd = os.open(target, os.O_WRONLY | os.O_CREAT | os.O_TRUNC | getattr(os, "O_CLOEXEC", 0), 0o666)
+            _check_streamable(shown, target)
+            # O_NONBLOCK: a FIFO swapped in after the check fails to open (no reader) rather than blocking for ever
+            fd = os.open(target, os.O_WRONLY | os.O_CREAT | os.O_TRUNC | getattr(os, "O_CLOEXEC", 0)
+                         | getattr(os, "O_NONBLOCK", 0), 0o666)
         except OutputError:
             raise
         except OSError as exc:
             raise OutputError(shown, f"cannot be written: {exc.strerror or exc}") from None
+        if hasattr(os, "set_blocking"):
+            os.set_blocking(fd, True)
         return cls(fd, shown, owned=True)
 
     @property
@@ -198,7 +223,7 @@ class LineOutput:
         end = self._pending.rfind("\n") + 1
         if end:
             lines, self._pending = self._pending[:end], self._pending[end:]
-            self._put(lines.encode("utf-8", "surrogateescape"))
+            self._put(valid_text(lines).encode("utf-8"))
             self.lines += lines.count("\n")
         return len(text)
 
@@ -215,7 +240,7 @@ class LineOutput:
         try:
             if self._pending and self._failure is None:
                 pending, self._pending = self._pending, ""
-                self._put(pending.encode("utf-8", "surrogateescape"))
+                self._put(valid_text(pending).encode("utf-8"))
         finally:
             if self._owned:
                 try:

@@ -5,12 +5,20 @@ A name from a file, a source typed on the command line, a value from YAML: any o
 or a bidirectional override such as U+202E (which makes ``zz\\u202eabc:1`` print as ``zz1:cba``). Every
 message path shows such text through :func:`escape_controls`, or through :func:`printable` (also shortened) and
 :func:`short_repr` (a value's repr, never the whole of a huge one), which use it.
+
+Text leaves the process by two more ways: drawn into a picture by OpenCV, and written into a message or a file
+that promises UTF-8 (a ROS string field, a JSON report, a file name). A lone surrogate (a name with non-UTF-8
+bytes, read with ``surrogateescape``, or ``"\\udcff"`` in YAML) kills OpenCV's text drawing with a segmentation
+fault and makes an encoder raise. :func:`drawable` is the one way text reaches ``cv2.putText`` and
+``cv2.getTextSize``; :func:`valid_text` the one way it reaches a UTF-8 field. Both escape rather than drop, so
+two different names stay different.
 """
 
 from __future__ import annotations
 
 import reprlib
 import unicodedata
+from functools import lru_cache
 
 _NAMED = {0x09: "\\t", 0x0A: "\\n", 0x0D: "\\r"}
 
@@ -19,6 +27,8 @@ def _escape(char: str) -> str:
     code = ord(char)
     if code in _NAMED:
         return _NAMED[code]
+    if 0xDC80 <= code <= 0xDCFF:  # a byte that is not UTF-8, kept by the file system's surrogateescape
+        return f"\\x{code - 0xDC00:02x}"
     return f"\\x{code:02x}" if code <= 0xFF else f"\\u{code:04x}" if code <= 0xFFFF else f"\\U{code:08x}"
 
 
@@ -59,3 +69,43 @@ def printable(text: object, limit: int = SHOWN_LENGTH) -> str:
 def short_repr(value: object) -> str:
     """A value as error messages show it: its repr, escaped, never the whole of a huge or deeply nested one."""
     return escape_controls(_short.repr(value))
+
+
+#: How much of a text a picture shows at most (a label, a title): longer text is cut, ending in ``...``.
+DRAWN_LENGTH = 200
+
+
+def valid_text(text: object) -> str:
+    """``text`` made encodable as UTF-8: each lone surrogate escaped (``\\xff`` for a byte of a name that is
+    not UTF-8, ``\\ud800`` for any other), everything else unchanged. For a ROS string field, a JSON or YAML
+    report, a file name made from a name."""
+    shown = str(text)
+    try:
+        shown.encode("utf-8")
+    except UnicodeEncodeError:
+        return "".join(_escape(c) if 0xD800 <= ord(c) <= 0xDFFF else c for c in shown)
+    return shown
+
+
+def drawable(text: object) -> str:
+    """``text`` as OpenCV's Hershey fonts can draw it: printable ASCII only, at most :data:`DRAWN_LENGTH`.
+
+    Accented letters lose their accent (``Müsli`` -> ``Musli``); every other character outside printable ASCII
+    (a control, a lone surrogate, a letter of another script) is shown as its escape (``\\u4e2d``), which
+    OpenCV would otherwise draw as ``?``, or, for a lone surrogate, crash on.
+    """
+    return _drawable(str(text))
+
+
+@lru_cache(maxsize=4096)  # the same labels are drawn on every frame
+def _drawable(text: str) -> str:
+    shown = []
+    for char in text:
+        if " " <= char <= "~":
+            shown.append(char)
+            continue
+        base = "".join(c for c in unicodedata.normalize("NFKD", char) if not unicodedata.combining(c)) \
+            if not 0xD800 <= ord(char) <= 0xDFFF else ""
+        shown.append(base if base and all(" " <= c <= "~" for c in base) else _escape(char))
+    drawn = "".join(shown)
+    return drawn if len(drawn) <= DRAWN_LENGTH else drawn[: DRAWN_LENGTH - 3] + "..."

@@ -2,7 +2,9 @@
 
 ``yaml.safe_load`` already refuses tags that build Python objects; this reader also refuses aliases (an
 alias bomb turns kilobytes into gigabytes), duplicate keys (the first would silently lose) and nesting past
-a depth (Python would hit its recursion limit), and reads through :func:`open_input`.
+a depth (Python would hit its recursion limit), and reads through :func:`open_input`. Documents are read
+from libyaml's events where PyYAML has it (:mod:`strictio.yaml_events`: a 2 MB file near the node limit in about
+a second instead of 10-40), with the pure-Python loader below as the fallback that gives the same data and errors.
 
 It also records where each key and list item stands (:func:`yaml_text_with_lines`), so a reader that finds
 a wrong value deep in a document can name its line; an integer too long to convert is refused naming its
@@ -21,6 +23,8 @@ import yaml
 from .errors import InputError
 from .limits import YAML_NODES, LimitError
 from .opener import read_text
+from .yaml_events import AVAILABLE as _LIBYAML
+from .yaml_events import EventBuilder, LongInteger, TooManyNodes, Unusual
 
 _short = reprlib.Repr()
 _short.maxstring = 60
@@ -50,16 +54,9 @@ class YAMLInputError(InputError):
         self.key_path = key_path
 
 
-class _TooManyNodes(Exception):
-    """Raised inside the loader; reported as a LimitError naming the file."""
-
-
-class _LongInteger(Exception):
-    """An integer scalar with more digits than Python converts, and where it stands."""
-
-    def __init__(self, digits: int, line: int, key_path: tuple[Any, ...] | None) -> None:
-        super().__init__(digits)
-        self.digits, self.line, self.key_path = digits, line, key_path
+#: Raised inside either loader; reported as a LimitError naming the file, or an error naming the line.
+_TooManyNodes = TooManyNodes
+_LongInteger = LongInteger
 
 
 class _StrictLoader(yaml.SafeLoader):
@@ -149,10 +146,12 @@ def yaml_text_with_lines(text: str, path: str | os.PathLike[str] = "<text>",
     """Like :func:`yaml_text`, with the line of every key and list item; errors at a known place are
     :class:`YAMLInputError` carrying the line."""
     limits = limits or YAMLLimits()
-    loader_class = type("_Loader", (_StrictLoader,), {"max_depth": limits.max_depth})
-    loader = None
+    loader: Any = None
     try:
-        loader = loader_class(text)  # refuses control characters at once
+        fast = _built_from_events(text, limits)
+        if fast is not None:
+            return fast
+        loader = type("_Loader", (_StrictLoader,), {"max_depth": limits.max_depth})(text)  # control characters
         return loader.get_single_data(), loader.key_lines
     except _LongInteger as exc:
         raise YAMLInputError(path, f"not valid YAML: an integer of {exc.digits:,} digits is not a usable number",
@@ -183,6 +182,32 @@ def yaml_text_with_lines(text: str, path: str | os.PathLike[str] = "<text>",
     finally:
         if loader is not None:
             loader.dispose()
+
+
+def _built_from_events(text: str, limits: YAMLLimits) -> tuple[Any, KeyLines] | None:
+    """The document through libyaml (:mod:`strictio.yaml_events`), or None where only the pure-Python loader
+    reads it: no libyaml, text libyaml cannot encode (a lone surrogate), a merge key or a tagged collection,
+    nesting past libyaml's own depth limit (refused there, at the place the dialect's limit is passed), a
+    surrogate escape ("\udcff")."""
+    if not _LIBYAML:
+        return None
+    try:
+        builder = EventBuilder(text, limits.max_depth, YAML_NODES.value())
+    except UnicodeEncodeError:
+        return None
+    try:
+        return builder.build()
+    except Unusual:
+        return None
+    except yaml.MarkedYAMLError as exc:
+        # libyaml's own depth limit, met ahead of the parser's events: the pure-Python loader names where the
+        # dialect's limit is passed. A "\udcff" escape libyaml refuses and PyYAML reads (as a lone surrogate,
+        # which every reader of names then shows escaped): the same document reads the same either way.
+        if any(text in str(exc.problem) for text in ("maximum nesting depth", "invalid Unicode character escape")):
+            return None
+        raise
+    finally:
+        builder.dispose()
 
 
 def read_yaml(path: str | os.PathLike[str], limits: YAMLLimits | None = None) -> Any:

@@ -7,6 +7,8 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
+from strictio.shown import drawable
+
 from ..base import as_bgr
 from .result import FeatureMatch
 from .target import Target
@@ -35,9 +37,9 @@ def _status_line(canvas: np.ndarray, match: FeatureMatch | None) -> None:
         colour = FOUND
     else:
         text, colour = f"not found: {match.reason}", REJECTED
-    (width, height), baseline = cv2.getTextSize(text, cv2.FONT_HERSHEY_SIMPLEX, 0.5, 1)
+    (width, height), baseline = cv2.getTextSize(drawable(text), cv2.FONT_HERSHEY_SIMPLEX, 0.5, 1)
     cv2.rectangle(canvas, (2, 2), (10 + width, 8 + height + baseline), (0, 0, 0), -1)
-    cv2.putText(canvas, text, (6, 4 + height), cv2.FONT_HERSHEY_SIMPLEX, 0.5, colour, 1, cv2.LINE_AA)
+    cv2.putText(canvas, drawable(text), (6, 4 + height), cv2.FONT_HERSHEY_SIMPLEX, 0.5, colour, 1, cv2.LINE_AA)
 
 
 def _draw_quadrilateral(canvas: np.ndarray, match: FeatureMatch) -> None:

@@ -9,6 +9,7 @@ keypoint inside the selection.
 
 from __future__ import annotations
 
+import functools
 import logging
 from collections.abc import Mapping
 from dataclasses import dataclass
@@ -54,6 +55,11 @@ class Target:
 
     def __len__(self) -> int:
         return len(self.keypoints)
+
+    @functools.cached_property
+    def gray(self) -> np.ndarray:
+        """The stored picture in grey, made once: what the photometric refinement aligns with each frame."""
+        return as_gray(self.image)
 
     def corners(self) -> np.ndarray:
         """The selection's outline in ``image`` coordinates (4 x 2): what the homography projects."""

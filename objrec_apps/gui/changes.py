@@ -9,14 +9,24 @@ and is saved as it is.
 
 from __future__ import annotations
 
+import contextlib
 import weakref
 from collections.abc import Callable
 from enum import Enum
 from typing import Any
 
+import shiboken6
 from PySide6.QtCore import QObject, Signal
-from PySide6.QtGui import QUndoStack
-from PySide6.QtWidgets import QInputDialog, QMessageBox, QWidget
+from PySide6.QtGui import QTextOption, QUndoStack
+from PySide6.QtWidgets import (
+    QDialog,
+    QDialogButtonBox,
+    QLabel,
+    QMessageBox,
+    QPlainTextEdit,
+    QVBoxLayout,
+    QWidget,
+)
 
 from objrec_core import Detector, Parametrizable, RecognitionSystem
 
@@ -58,6 +68,36 @@ class Answer(Enum):
     CANCEL = "cancel"
 
 
+class DescriptionDialog(QDialog):
+    """Edit > Description: the text wraps at the box's width (a one-line box hid all but the start of a
+    long description) and every control has a mnemonic."""
+
+    def __init__(self, text: str, parent: QWidget | None = None) -> None:
+        super().__init__(parent)
+        self.setObjectName("description_dialog")
+        self.setWindowTitle("Description")
+        layout = QVBoxLayout(self)
+        label = QLabel("&Description: what this parameter file finds (leave empty to have it follow the values)")
+        label.setWordWrap(True)
+        self.edit = QPlainTextEdit(text)
+        self.edit.setLineWrapMode(QPlainTextEdit.LineWrapMode.WidgetWidth)
+        self.edit.setWordWrapMode(QTextOption.WrapMode.WordWrap)
+        self.edit.setTabChangesFocus(True)
+        label.setBuddy(self.edit)
+        buttons = QDialogButtonBox(QDialogButtonBox.StandardButton.Ok | QDialogButtonBox.StandardButton.Cancel)
+        buttons.button(QDialogButtonBox.StandardButton.Ok).setText("&OK")
+        buttons.button(QDialogButtonBox.StandardButton.Cancel).setText("&Cancel")
+        buttons.accepted.connect(self.accept)
+        buttons.rejected.connect(self.reject)
+        layout.addWidget(label)
+        layout.addWidget(self.edit, 1)
+        layout.addWidget(buttons)
+        self.resize(520, 240)
+
+    def text(self) -> str:
+        return self.edit.toPlainText()
+
+
 class ChangeTracker(QObject):
     """The window's document state: modified or not (from the undo stack's clean state), the question
     before losing changes, the opened values and the description policy.
@@ -77,8 +117,20 @@ class ChangeTracker(QObject):
         self.save = save
         self.ask: Callable[[str], Answer] = self.ask_with_dialog
         self.description_is_users = False
-        self.stack.cleanChanged.connect(lambda clean: self.modifiedChanged.emit(not clean))
+        self.stack.cleanChanged.connect(self._clean_changed)
         self.opened()
+
+    def _clean_changed(self, clean: bool) -> None:
+        # A stack with steps left emits cleanChanged from its own destructor (it clears itself): by then the
+        # window is being torn down and asking anything of the stack raises (issue 26 item 6: a traceback
+        # after Quit, Discard). A stack that is going away has no state to report.
+        if shiboken6.isValid(self.stack) and shiboken6.isValid(self):
+            self.modifiedChanged.emit(not clean)
+
+    def detach(self) -> None:
+        """The window closes: the stack's last signals (while it is destroyed) reach no one."""
+        with contextlib.suppress(RuntimeError, TypeError):  # already disconnected, or the stack already gone
+            self.stack.cleanChanged.disconnect(self._clean_changed)
 
     @property
     def modified(self) -> bool:
@@ -98,10 +150,26 @@ class ChangeTracker(QObject):
         remember_opened_values(self.system)
         text = self.system.description
         self.description_is_users = bool(text) and text != describe(self.system)
+        self._opened_description = text
+        self._opened_modules = list(self.system.modules)
 
-    def before_save(self) -> None:
-        """Bring a description that follows the values up to date (no undo step: the save makes it)."""
-        if not self.description_is_users and self.system.modules:
+    def tuned(self) -> bool:
+        """Whether the pipeline or any value differs from what was opened."""
+        modules = list(self.system.modules)
+        if len(modules) != len(self._opened_modules) or any(a is not b for a, b in zip(modules, self._opened_modules,
+                                                                                       strict=True)):
+            return True
+        return any(opened_values(module) != module.get_parameters() for module in modules)
+
+    def before_save(self, shipped: bool = False) -> None:
+        """Bring a description that follows the values up to date (no undo step: the save makes it). A
+        system started from a shipped file (``shipped``) and tuned no longer is what the shipped description
+        says (issue 26 item 14): unless the user wrote their own, the saved one is made from the values."""
+        if not self.system.modules:
+            return
+        stale = shipped and self.system.description == self._opened_description and self.tuned()
+        if not self.description_is_users or stale:
+            self.description_is_users = False
             self.system.set_identity(self.system.object_name, describe(self.system), notify=False)
 
     def set_description(self, text: str) -> None:
@@ -109,14 +177,14 @@ class ChangeTracker(QObject):
         self.description_is_users = bool(text.strip())
         self.system.description = text.strip() if text.strip() else describe(self.system)
 
-    def edit_description(self) -> None:
-        """Ask for the description in a dialog."""
-        text, ok = QInputDialog.getMultiLineText(
-            self.window, "Description",
-            "What this parameter file finds (leave empty to have it follow the values):",
-            self.system.description if self.description_is_users else "")
-        if ok:
-            self.set_description(text)
+    def edit_description(self) -> DescriptionDialog:
+        """Ask for the description in a dialog (window-modal, not blocking); the dialog is returned."""
+        dialog = DescriptionDialog(self.system.description if self.description_is_users else "", self.window)
+        dialog.accepted.connect(lambda: self.set_description(dialog.text()))
+        dialog.finished.connect(lambda _result: dialog.deleteLater())
+        self.description_dialog = dialog
+        dialog.open()
+        return dialog
 
     def forget(self) -> None:
         """Treat the changes as saved (an embedding app or a test closing without asking)."""
@@ -129,6 +197,10 @@ class ChangeTracker(QObject):
                           | QMessageBox.StandardButton.Cancel, self.window)
         box.setObjectName("unsaved_changes")
         box.setDefaultButton(QMessageBox.StandardButton.Save)
+        for button, text in ((QMessageBox.StandardButton.Save, "&Save"), (QMessageBox.StandardButton.Discard,
+                                                                         "&Discard"),
+                             (QMessageBox.StandardButton.Cancel, "&Cancel")):
+            box.button(button).setText(text)  # mnemonics: Alt+S, Alt+D, Alt+C (issue 26 item 14)
         answer = box.exec()
         if answer == QMessageBox.StandardButton.Save:
             return Answer.SAVE

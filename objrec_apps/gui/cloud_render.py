@@ -95,6 +95,21 @@ class CloudScene:
             merged_owner.append(owner[keep].astype(np.uint8))
         return cls(names, np.concatenate(merged_points), np.concatenate(merged_owner), counts)
 
+    def thinned(self, budget: int) -> CloudScene:
+        """At most about ``budget`` points: every k-th point of the scene (itself when it is small enough), for
+        drawing while the camera moves. The legend's counts stay the full scene's; made once per scene."""
+        step = -(-self.points.shape[0] // max(budget, 1))
+        if step <= 1:
+            return self
+        cached = self.__dict__.get("_thinned")
+        if cached is not None and cached[0] == step:
+            return cached[1]
+        thin = CloudScene(self.names, np.ascontiguousarray(self.points[::step]),
+                          np.ascontiguousarray(self.owner[::step]), self.counts)
+        thin.__dict__["_bounds"] = (thin.points, self.bounds())  # the same view box as the whole scene
+        self.__dict__["_thinned"] = (step, thin)
+        return thin
+
     def bounds(self) -> tuple[np.ndarray, np.ndarray] | None:
         """A robust box around the points (2nd to 98th percentile), for fitting the view; computed once per
         scene, since views ask for it on every frame they draw (grid, clip planes)."""

@@ -1,10 +1,12 @@
 """The HSV eyedropper: drag a rectangle on a colour object and the HSV filter's ranges fit its pixels.
 
 Finding six thresholds by moving sliders is the slowest part of tuning a colour system; the pixels the user
-points at already say what the ranges should be. Robust percentiles (not the extremes) keep a few stray
-background or highlight pixels in the rectangle from opening the range to everything, and the hue is
-measured on the circle, so red (hues on both sides of 0) gives a wrapping range (``h_min > h_max``) instead
-of "every hue". The six values go to the filter in ONE ``set_parameters`` call: one change, one undo step.
+points at already say what the ranges should be. A rectangle drawn loosely round an object also holds
+background, the object's specular highlights and perhaps a neighbour: only the pixels of its dominant colour
+are measured (saturation and value gates, then the largest hue cluster, then the largest brightness cluster;
+``object_pixels``), and robust percentiles (not the extremes) of those set the ranges. The hue is measured on
+the circle, so red (hues on both sides of 0) gives a wrapping range (``h_min > h_max``) instead of "every
+hue". The six values go to the filter in ONE ``set_parameters`` call: one change, one undo step.
 
 The eyedropper is on while its toolbar button is checked, or for one drag made with Shift held; otherwise a
 drag gives a target to the detectors as before. The filter is found by its parameters (any module with
@@ -27,42 +29,144 @@ from objrec_core import RecognitionSystem, Rect, StageResults
 #: The parameters that make a module an HSV filter for the eyedropper.
 HSV_PARAMETERS = ("h_min", "h_max", "s_min", "s_max", "v_min", "v_max")
 HUE_PERIOD = 180  # OpenCV's 8-bit hue: 0..179
-#: Percentiles of the pixels the ranges span: the outer 1 % each side are strays (noise, edges).
+#: Percentiles of the object's pixels the ranges span: the outer 1 % each side are strays (noise, edges).
 LOW, HIGH = 1.0, 99.0
 #: Added beyond the percentiles, so the pixels of the same object in the next frames (noise, shading) stay in.
-HUE_MARGIN, SV_MARGIN = 3, 20
+#: The hue margin never reaches past the end of the object's hue cluster (next to it may be another colour).
+HUE_MARGIN, SV_MARGIN = 2, 20
+#: A pixel has a hue worth taking when it is this saturated and this bright: white background, grey shadows
+#: and specular highlights (saturation near 0) and black (value near 0) have hues that are only noise.
+SATURATION_GATE, VALUE_GATE = 40, 20
+#: Two neighbouring histogram peaks are one colour unless the valley between them falls under this share of
+#: the lower peak (an orange candy's pure-red shading forms a peak of its own next to its orange hues).
+VALLEY_SHARE = 0.2
+#: The value histogram's bin width: wide enough to smooth noise, narrow enough to part brown from red.
+VALUE_BIN = 8
+#: The brightness kept is the run of value bins round the peak holding at least this share of its count.
+VALUE_CORE = 0.03
+#: Fewer gated pixels than this share of the rectangle: the object itself is grey, so all pixels are measured.
+MIN_GATED_SHARE = 0.05
+
+
+def histogram_clusters(counts: np.ndarray, *, circular: bool) -> list[np.ndarray]:
+    """The non-empty bins of ``counts`` grouped by colour: each an array of bin indices in order along the
+    axis (a circular cluster may wrap past the last bin). Empty bins always separate clusters; inside a run
+    of non-empty bins, the run is cut at its local minima and neighbouring parts are merged again unless the
+    valley between them is under ``VALLEY_SHARE`` of the lower of their two peaks."""
+    n = len(counts)
+    if not counts.any():
+        return []
+    order = np.arange(n)
+    if circular:  # start the walk on an empty bin (or on the lowest one) so no run is cut by the array's end
+        order = np.roll(order, -int(np.argmin(counts)))
+    clusters: list[np.ndarray] = []
+    run: list[int] = []
+    for index in [*order.tolist(), -1]:
+        if index >= 0 and counts[index] > 0:
+            run.append(index)
+            continue
+        if run:
+            clusters.extend(_split_run(counts, np.asarray(run)))
+        run = []
+    return clusters
+
+
+def _split_run(counts: np.ndarray, run: np.ndarray) -> list[np.ndarray]:
+    values = counts[run].astype(np.float64)
+    cuts = [i for i in range(1, len(values) - 1) if values[i] <= values[i - 1] and values[i] < values[i + 1]]
+    parts = [list(range(a, b)) for a, b in zip([0, *cuts], [*cuts, len(values)], strict=True)]
+    while len(parts) > 1:
+        ratios = [values[parts[k + 1][0]] / min(values[parts[k]].max(), values[parts[k + 1]].max())
+                  for k in range(len(parts) - 1)]
+        best = int(np.argmax(ratios))
+        if ratios[best] < VALLEY_SHARE:
+            break
+        parts[best:best + 2] = [parts[best] + parts[best + 1]]
+    return [run[part] for part in parts]
+
+
+def largest_cluster(values: np.ndarray, bins: int, *, width: int = 1, circular: bool = False,
+                    core: float = 0.0) -> np.ndarray:
+    """Which of ``values`` (integers in 0..bins*width-1) fall in the most populated cluster of their histogram
+    (bins of ``width`` values; see ``histogram_clusters``), as a boolean array. ``core`` > 0 keeps only the
+    bins around the cluster's peak down to where the count first falls under that share of the peak: the
+    long thin shoulder of pixels between two objects (an edge where a red candy's shading runs into a brown
+    one) is left out."""
+    binned = values // width
+    counts = np.bincount(binned, minlength=bins)
+    clusters = histogram_clusters(counts, circular=circular)
+    best = max(clusters, key=lambda bins_: int(counts[bins_].sum()))
+    if core > 0:
+        along = counts[best]
+        top = int(np.argmax(along))
+        low = along >= core * along[top]
+        first = top - int(np.argmin(low[top::-1])) + 1 if not low[:top + 1].all() else 0
+        last = top + int(np.argmin(low[top:])) - 1 if not low[top:].all() else len(along) - 1
+        best = best[first:last + 1]
+    return np.isin(binned, best)
+
+
+def object_pixels(hsv: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The rows of ``hsv`` (N x 3, OpenCV HSV) that belong to the dominant coloured object of a rectangle,
+    and which hues the rest of the rectangle's coloured pixels have (a boolean per hue): pixels with a real
+    hue (saturation and value gates), then the largest hue cluster (on the circle, so red on both sides of 0
+    is one cluster), then the largest brightness cluster within it (brown and red share hues). A rectangle
+    with almost no coloured pixel (a grey object) is measured whole."""
+    others = np.zeros(HUE_PERIOD, bool)
+    gated = hsv[(hsv[:, 1] >= SATURATION_GATE) & (hsv[:, 2] >= VALUE_GATE)]
+    if len(gated) < max(1, MIN_GATED_SHARE * len(hsv)):
+        return hsv, others
+    in_cluster = largest_cluster(gated[:, 0], HUE_PERIOD, circular=True)
+    others[gated[~in_cluster, 0]] = True
+    gated = gated[in_cluster]
+    return gated[largest_cluster(gated[:, 2], 256 // VALUE_BIN, width=VALUE_BIN, core=VALUE_CORE)], others
+
+
+def hue_range(hue: np.ndarray, low: float, high: float, others: np.ndarray | None = None) -> tuple[int, int]:
+    """(h_min, h_max) spanning the ``low``..``high`` percentiles of ``hue`` measured on the circle, widened by
+    ``HUE_MARGIN`` but never onto the hues of ``others`` (the other colours seen beside the object);
+    h_min > h_max is a range wrapping around 0."""
+    counts = np.bincount(hue, minlength=HUE_PERIOD)
+    empty = np.flatnonzero(counts == 0)
+    if len(empty) == 0:
+        return 0, HUE_PERIOD - 1
+    # turned so the middle of the widest run of absent hues is 0: the object's hues lie inside, unwrapped
+    present = np.flatnonzero(counts)
+    gaps = np.diff(np.concatenate([present, [present[0] + HUE_PERIOD]]))  # present hue to the next one
+    widest = int(np.argmax(gaps))
+    start = int(present[widest] + (gaps[widest] + 1) // 2) % HUE_PERIOD
+    turned = np.mod(hue - start, HUE_PERIOD)
+    h_lo, h_hi = np.percentile(turned, [low, high])
+    lo, hi = int(np.floor(h_lo)), int(np.ceil(h_hi))
+    taken = np.zeros(HUE_PERIOD, bool) if others is None else np.roll(others, -start)
+    for _ in range(HUE_MARGIN):
+        if lo > 0 and not taken[lo - 1]:
+            lo -= 1
+        if hi < HUE_PERIOD - 1 and not taken[(hi + 1) % HUE_PERIOD]:
+            hi += 1
+    if hi - lo >= HUE_PERIOD - 1:
+        return 0, HUE_PERIOD - 1
+    return (lo + start) % HUE_PERIOD, (hi + start) % HUE_PERIOD
 
 
 def hsv_ranges(bgr: np.ndarray, low: float = LOW, high: float = HIGH) -> dict[str, int]:
-    """The HSV filter values that keep the pixels of ``bgr`` (H x W x 3, or N x 3, uint8 BGR).
-
-    Hue is handled on its circle: the pixels are turned so their circular mean sits mid-range, the
-    percentiles taken there and turned back, which gives ``h_min > h_max`` (a range wrapping around 0) for
-    red. A spread wider than half the circle keeps every hue.
+    """The HSV filter values that keep the object in ``bgr`` (H x W x 3, or N x 3, uint8 BGR): the pixels of
+    its dominant colour (``object_pixels``: not the background, the highlights or a neighbour caught in the
+    rectangle), their ``low``..``high`` percentiles plus margins. Hue is measured on its circle, which gives
+    ``h_min > h_max`` (a range wrapping around 0) for red.
     """
     pixels = np.ascontiguousarray(bgr, dtype=np.uint8).reshape(-1, 1, 3)
     if pixels.shape[0] == 0:
         raise ValueError("no pixels to measure")
-    hsv = cv2.cvtColor(pixels, cv2.COLOR_BGR2HSV).reshape(-1, 3).astype(np.float64)
-    hue, sat, val = hsv[:, 0], hsv[:, 1], hsv[:, 2]
-    angle = hue * (2 * np.pi / HUE_PERIOD)
-    mean = np.arctan2(np.sin(angle).mean(), np.cos(angle).mean()) * HUE_PERIOD / (2 * np.pi)
-    shift = HUE_PERIOD / 2 - mean
-    turned = np.mod(hue + shift, HUE_PERIOD)
-    h_lo, h_hi = np.percentile(turned, [low, high])
-    h_lo, h_hi = h_lo - HUE_MARGIN, h_hi + HUE_MARGIN
-    if h_hi - h_lo >= HUE_PERIOD / 2 + 2 * HUE_MARGIN:
-        h_min, h_max = 0, HUE_PERIOD - 1
-    else:
-        h_min = int(np.floor(np.mod(h_lo - shift, HUE_PERIOD)))
-        h_max = int(np.ceil(np.mod(h_hi - shift, HUE_PERIOD))) % HUE_PERIOD
-    s_lo, s_hi = np.percentile(sat, [low, high])
-    v_lo, v_hi = np.percentile(val, [low, high])
+    hsv, others = object_pixels(cv2.cvtColor(pixels, cv2.COLOR_BGR2HSV).reshape(-1, 3).astype(np.int64))
+    h_min, h_max = hue_range(hsv[:, 0], low, high, others)
+    s_lo = np.percentile(hsv[:, 1], low)
+    v_lo, v_hi = np.percentile(hsv[:, 2], [low, high])
     return {
         "h_min": h_min,
         "h_max": h_max,
         "s_min": int(max(0, np.floor(s_lo - SV_MARGIN))),
-        "s_max": int(min(255, np.ceil(s_hi + SV_MARGIN))),
+        "s_max": 255,  # more saturated than the object is still its colour, never the background
         "v_min": int(max(0, np.floor(v_lo - SV_MARGIN))),
         "v_max": int(min(255, np.ceil(v_hi + SV_MARGIN))),
     }

@@ -1,6 +1,7 @@
 """GLCloudView: the 3D view drawn by OpenGL (a QOpenGLWidget with vertex buffers), for turning large clouds
 smoothly where a GPU or Mesa is present; ``make_cloud_view`` picks it, or the NumPy ``CloudView`` where
-OpenGL is missing (the offscreen platform, a failed context, or ``OBJREC_GL=0``).
+OpenGL is missing (the offscreen platform, a failed context, or ``OBJREC_GL=0``) or drawn by the processor
+(Mesa's llvmpipe: ``render_path.py`` chooses).
 
 The points go to the GPU once per frame of data (interleaved positions and layer colours); turning the
 view only changes a matrix, so each frame costs the GPU's (or Mesa llvmpipe's) point drawing and nothing in
@@ -24,6 +25,7 @@ from PySide6.QtWidgets import QWidget
 
 from .cloud_render import BACKGROUND, NEAR, layer_colour
 from .cloud_view import CloudInteraction, CloudView
+from .render_path import NO_GL_PLATFORMS, RenderPath, choose_render_path
 
 log = logging.getLogger(__name__)
 
@@ -34,8 +36,6 @@ GL_PROGRAM_POINT_SIZE = 0x8642
 GL_POINTS = 0x0000
 GL_FLOAT = 0x1406
 GL_UNSIGNED_BYTE = 0x1401
-#: Platforms where Qt cannot make an OpenGL context for a widget.
-NO_GL_PLATFORMS = frozenset({"offscreen", "minimal", "vnc", "linuxfb"})
 
 VERTEX_SHADER = """
 #version 120
@@ -77,10 +77,18 @@ def gl_available() -> bool:
 
 
 def make_cloud_view(parent: QWidget | None = None, prefer_gl: bool | None = None) -> CloudView | GLCloudView:
-    """The OpenGL view where it can work (``prefer_gl`` None: decide by ``gl_available``), else the
-    software one."""
-    use_gl = gl_available() if prefer_gl is None else prefer_gl and gl_available()
-    return GLCloudView(parent) if use_gl else CloudView(parent)
+    """The faster view for this machine (``prefer_gl`` None: ``render_path.choose_render_path``, from the
+    OpenGL renderer's name and ``OBJREC_RENDERER``), else OpenGL where it can work (True) or the software
+    one (False). The view's ``render_path`` says which and why."""
+    if prefer_gl is None:
+        path = choose_render_path()
+    elif prefer_gl and gl_available():
+        path = RenderPath(True, "asked for by the caller")
+    else:
+        path = RenderPath(False, "asked for by the caller" if not prefer_gl else "no OpenGL here")
+    view = GLCloudView(parent) if path.opengl else CloudView(parent)
+    view.render_path = path
+    return view
 
 
 def projection_matrix(fov_y: float, aspect: float, near: float, far: float) -> np.ndarray:
@@ -111,6 +119,7 @@ class GLCloudView(CloudInteraction, QOpenGLWidget):
         self._vertices: QOpenGLBuffer | None = None
         self._uploaded: tuple[int, frozenset[int]] | None = None  # the scene and hidden layers in the buffers
         self._count = 0
+        self._thinned_count = 0
         self.gl_failed = ""
 
     @property
@@ -147,6 +156,13 @@ class GLCloudView(CloudInteraction, QOpenGLWidget):
             keep = ~np.isin(owner, list(self.hidden))
             points, owner = points[keep], owner[keep]
         palette = np.array([layer_colour(i) for i in range(int(owner.max(initial=0)) + 1)], np.uint8)
+        # Every k-th point first, then the rest: the first n/k vertices are the thinned cloud drawn while the
+        # camera moves (level of detail), without a second buffer.
+        step = -(-points.shape[0] // self.moving_points) if self.moving_points > 0 else 1
+        if step > 1:
+            order = np.concatenate([np.arange(start, points.shape[0], step) for start in range(step)])
+            points, owner = points[order], owner[order]
+        self._thinned_count = -(-points.shape[0] // step)
         # One interleaved 16-byte vertex (x, y, z as floats, then r, g, b, pad): one fetch per point.
         vertices = np.zeros(points.shape[0], dtype=[("position", np.float32, 3), ("colour", np.uint8, 4)])
         vertices["position"] = points
@@ -207,7 +223,11 @@ class GLCloudView(CloudInteraction, QOpenGLWidget):
         mvp = projection_matrix(self.camera.fov_y, self._aspect(), near, far) @ view
         functions.glViewport(0, 0, round(self.width() * ratio), round(self.height() * ratio))
         functions.glEnable(GL_DEPTH_TEST)
-        if self.point_size > 1:  # wide points cost Mesa a slower path: size 1 leaves it off
+        thinned = self.moving and 0 < self._thinned_count < self._count
+        # Thinned while moving: each point drawn wider (every k-th point, k times the area) so the cloud keeps
+        # its surface rather than turning into dust.
+        size = self.point_size * (round(math.sqrt(self._count / self._thinned_count)) if thinned else 1)
+        if size > 1:  # wide points cost Mesa a slower path: size 1 leaves it off
             functions.glEnable(GL_PROGRAM_POINT_SIZE)
         else:
             functions.glDisable(GL_PROGRAM_POINT_SIZE)
@@ -218,9 +238,13 @@ class GLCloudView(CloudInteraction, QOpenGLWidget):
         program.setUniformValue(program.uniformLocation("forward"), *(float(v) for v in forward))
         program.setUniformValue1f(program.uniformLocation("near_depth"), shade_near)
         program.setUniformValue1f(program.uniformLocation("depth_scale"), 1.0 / max(shade_far - shade_near, 1e-6))
-        program.setUniformValue1f(program.uniformLocation("point_size"), float(self.point_size * ratio))
+        program.setUniformValue1f(program.uniformLocation("point_size"), float(size * ratio))
         self._vao.bind()
-        functions.glDrawArrays(GL_POINTS, 0, self._count)
+        if thinned:
+            self.thinned_frames += 1
+        else:
+            self.whole_frames += 1
+        functions.glDrawArrays(GL_POINTS, 0, self._thinned_count if thinned else self._count)
         self._vao.release()
         program.release()
         functions.glDisable(GL_DEPTH_TEST)

@@ -126,11 +126,13 @@ class LiveTopicDialog(QDialog):
         self.domain.setValue(int(defaults["domain"]))
         self.domain.setToolTip("The ROS 2 domain id (default: ROS_DOMAIN_ID)")
         self.address_label = QLabel()
-        self.refresh_button = QPushButton("Refresh")
+        self.refresh_button = QPushButton("&Refresh")
         self.refresh_button.setToolTip("List what is published now")
         self.refresh_button.clicked.connect(self.refresh)
         row = QHBoxLayout()
-        row.addWidget(QLabel("Transport"))
+        transport_label = QLabel("&Transport")  # mnemonics: Alt+T, Alt+M or Alt+D, Alt+R, Alt+O (issue 26)
+        transport_label.setBuddy(self.transport)
+        row.addWidget(transport_label)
         row.addWidget(self.transport)
         row.addWidget(self.address_label)
         row.addWidget(self.master, 1)
@@ -154,6 +156,8 @@ class LiveTopicDialog(QDialog):
         self.note.setWordWrap(True)
         self.buttons = QDialogButtonBox(QDialogButtonBox.StandardButton.Open | QDialogButtonBox.StandardButton.Cancel)
         self.open_button = self.buttons.button(QDialogButtonBox.StandardButton.Open)
+        self.open_button.setText("&Open")
+        self.buttons.button(QDialogButtonBox.StandardButton.Cancel).setText("&Cancel")
         self.open_button.setEnabled(False)
         self.buttons.accepted.connect(lambda: self._choose(self.topics.currentItem()))
         self.buttons.rejected.connect(self.reject)
@@ -185,7 +189,8 @@ class LiveTopicDialog(QDialog):
 
     def _transport_changed(self) -> None:
         ros1 = self.scheme == "ros1"
-        self.address_label.setText("Master" if ros1 else "Domain")
+        self.address_label.setText("&Master" if ros1 else "&Domain")
+        self.address_label.setBuddy(self.master if ros1 else self.domain)
         self.master.setVisible(ros1)
         self.domain.setVisible(not ros1)
         try:

@@ -13,8 +13,8 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
-from PySide6.QtCore import QByteArray, QSettings, Qt, Signal
-from PySide6.QtGui import QAction, QActionGroup, QCloseEvent, QKeySequence
+from PySide6.QtCore import QByteArray, QSettings, QSize, Qt, Signal
+from PySide6.QtGui import QAction, QActionGroup, QCloseEvent, QKeySequence, QShowEvent
 from PySide6.QtWidgets import (
     QDockWidget,
     QInputDialog,
@@ -22,12 +22,10 @@ from PySide6.QtWidgets import (
     QMainWindow,
     QMessageBox,
     QScrollArea,
-    QStackedWidget,
     QToolBar,
 )
 
 from objrec_core import (
-    DefinitionDirector,
     FrameSource,
     Kind,
     RecognitionSystem,
@@ -44,19 +42,25 @@ from objrec_core import (
 from .changes import ChangeTracker
 from .export_script import export_dialog
 from .eyedropper import Eyedropper
+from .kind_guard import KindGuardedDirector
 from .label_mode import LabelMode
 from .live_topic_dialog import LiveTopicDialog
+from .log_messages import LogToMessages
 from .message_area import MessageArea, detector_reasons, is_file_error, selection_report
 from .panel_column import PanelColumn
 from .parameter_files import ParameterFiles
 from .pipeline_menu import PipelineMenu
 from .quality_strip import QualityStrip
+from .recent_files import RecentFiles
 from .seek_bar import SeekBar
+from .selection_target import SelectionTarget, select_in
 from .source_bar import FrameRate, SourceBar
 from .stage_views import MODES, StageViews, stage_images
+from .status_line import MessageBar
 from .topic_chooser import with_topic
 from .undo import UndoRecorder
 from .view3d import View3D, prepare_scene
+from .window_fit import PageStack, fit_to_screen
 from .worker import ProcessingWorker, Shown
 
 log = logging.getLogger(__name__)
@@ -126,11 +130,19 @@ class DefinitionGUI(QMainWindow):
         fps_limit: float | None = 30.0,
         view_mode: str | None = None,
         paused: bool = False,
+        first_frame: bool = False,
     ) -> None:
         super().__init__()
+        #: Whether a source opened while paused shows its first frame at once (a step), rather than waiting
+        #: for Step or Play. Always for sources the user opens; for the one opened here, ``first_frame``
+        #: (objrec-define --paused: paused on the first frame, issue 26 item 7).
+        self.first_frame_when_paused = first_frame
+        self._first_frame_wanted = False
+        #: The worker's count of processed frames when Loop last restarted a failing source.
+        self._restarted_at = -1
         self.system = system if system is not None else RecognitionSystem()
         self.settings = settings if settings is not None else default_settings()
-        self.director = DefinitionDirector(self.system)
+        self.director = KindGuardedDirector(self.system)  # a frame of another kind never reaches the pipeline
         self.worker = ProcessingWorker(self.director, fps_limit=fps_limit, prepare=self._prepare)
         self.selection_callbacks: list[SelectionCallback] = [self.give_selection_to_detectors]
         self.frame_rate = FrameRate()
@@ -152,11 +164,11 @@ class DefinitionGUI(QMainWindow):
         self.undo = UndoRecorder(self.system, self)
         self.changes = ChangeTracker(self.system, self.undo.stack, self, self.files.save)
         self.files.guard = self.changes.may_lose_changes
-        self.files.before_write = self.changes.before_save
+        self.files.before_write = lambda: self.changes.before_save(shipped=self.files.origin is not None)
 
         self.stage_views = StageViews(view_mode or str(self.settings.value("view/mode", "tabs")))
         self.view3d = View3D()
-        self.central = QStackedWidget()
+        self.central = PageStack()  # sized to the page on screen: the 3D page never widens a 2D window
         self.central.addWidget(self.stage_views)
         self.central.addWidget(self.view3d)
         self.setCentralWidget(self.central)
@@ -181,17 +193,27 @@ class DefinitionGUI(QMainWindow):
         self.addToolBar(Qt.ToolBarArea.TopToolBarArea, self.seek_bar)
         self.message_area = MessageArea(self)
         self.addDockWidget(Qt.DockWidgetArea.BottomDockWidgetArea, self.message_area)
+        # Issue 26 item 10: a folder's unreadable files, logged by the source, reach the message area too.
+        self.source_warnings = LogToMessages()
+        self.source_warnings.logged.connect(self._source_warning)
+        self.source_warnings.attach()
 
         self.hover_label = QLabel()
         self.path_label = QLabel()
         # Fixed widths: a long pixel readout or a deep path must not widen the window (the path is elided).
         self.hover_label.setFixedWidth(480)
         self.path_label.setFixedWidth(280)
+        self.setStatusBar(MessageBar(self))  # messages cut at a word, left of the read-out (issue 26 item 11)
         self.statusBar().addPermanentWidget(self.hover_label)
         self.statusBar().addPermanentWidget(self.path_label)
+        self.hover_label.hide()  # shown while the mouse is over a picture: the messages have its room otherwise
 
         self.pipeline_menu = PipelineMenu(self.system, self)
+        # Issue 26: a selection goes to one detector, the one whose panel was last used (or chosen).
+        self.selection_target = SelectionTarget(self.system, self.panels, self.ask_choice, self)
         self.eyedropper = Eyedropper(self.system, lambda text, error: self.show_message(text, error=error), self)
+        # A row of their own: beside the seek bar of a recording they ran off a 1280 px screen (issue 26).
+        self.addToolBarBreak(Qt.ToolBarArea.TopToolBarArea)
         self.addToolBar(Qt.ToolBarArea.TopToolBarArea, self.eyedropper.toolbar)
         # Issue 23: labels drawn on the frames (label_mode.py) and their figures, live (quality_strip.py).
         self._source_spec: str | None = None
@@ -214,6 +236,9 @@ class DefinitionGUI(QMainWindow):
             self.worker.set_source(source, self._source_kind)
         elif source:
             self.open_source(source)
+        if isinstance(source, FrameSource):
+            self._first_frame_wanted = self.first_frame_when_paused
+        self.first_frame_when_paused = True
         self.worker.start()
 
     # -- construction ---------------------------------------------------------------------------------------
@@ -221,6 +246,8 @@ class DefinitionGUI(QMainWindow):
         bar = self.menuBar()
         file_menu = bar.addMenu("&File")
         self.open_action = self._action(file_menu, "&Open…", QKeySequence.StandardKey.Open, self.files.open)
+        self.recent = RecentFiles(self.settings, self.files.open, self)
+        file_menu.addMenu(self.recent.menu)
         self.open_topic_action = self._action(file_menu, "Open &topic…", QKeySequence("Ctrl+T"), self.open_topic)
         self.open_topic_action.setToolTip("Tune on a live ROS 1 or ROS 2 topic: list what is published, open one")
         self.save_action = self._action(file_menu, "&Save", QKeySequence.StandardKey.Save, self.files.save)
@@ -281,10 +308,11 @@ class DefinitionGUI(QMainWindow):
 
     def _connect(self) -> None:
         self.worker.resultReady.connect(self._show_newest)
-        self.worker.failed.connect(lambda text: self.show_message(text, error=True))
+        self.worker.failed.connect(self._worker_failed)
         self.worker.sourceOpened.connect(self._source_opened)
         self.worker.sourceEnded.connect(self._source_ended)
         self.worker.pausedChanged.connect(self.source_bar.set_paused)
+        self.worker.pausedChanged.connect(lambda paused: paused and self._frames_stopped("paused"))
         self.worker.callDone.connect(lambda done, result: done(result))
         self.source_bar.sourceRequested.connect(self.open_source)
         self.source_bar.pauseToggled.connect(self.set_paused)
@@ -303,20 +331,22 @@ class DefinitionGUI(QMainWindow):
         self.files.pathChanged.connect(lambda _path: self._update_title())
         self.files.opened.connect(lambda _path: (self.undo.reset(), self.changes.opened()))
         self.files.saved.connect(lambda _path: self.undo.stack.setClean())
+        self.files.opened.connect(self.recent.add)
+        self.files.saved.connect(self.recent.add)
         self.changes.modifiedChanged.connect(lambda _modified: self._update_title())
         self.files.opened.connect(lambda _path: self._follow_kind())
         self.panels.error.connect(lambda text: self.show_message(text, error=True))
         self.panels.pipeline_changed.connect(self._follow_kind)
         self.pipeline_menu.message.connect(self.show_message)
         self.stage_views.areaSelected.connect(self.hand_selection)
-        self.stage_views.hovered.connect(self.hover_label.setText)
+        self.stage_views.hovered.connect(self._show_pixel)
 
     # -- sources ------------------------------------------------------------------------------------------
     def open_source(self, spec: str, why: str = "") -> None:
         """Open a source for the pipeline's kind of data (in the worker thread). With no kind yet, the kind
         whose source reads the spec; a spec of several kinds (``demo``) waits for the pipeline to get one.
         ``why`` starts the status message. A recording of several topics asks which one to play."""
-        chosen = with_topic(spec, self.ask_choice)
+        chosen = with_topic(spec, self.ask_choice, self.system.kind)
         if chosen is None:
             self.show_message(f"{spec} not opened: no topic chosen")
             return
@@ -343,6 +373,7 @@ class DefinitionGUI(QMainWindow):
         self.show_message(f"{why}: opening {spec}…" if why else f"Opening {spec}…")
         self.view3d.set_busy(f"opening {spec}…")  # a large cloud can take seconds: say so, not a black view
         self._source_spec = spec
+        self._first_frame_wanted = self.first_frame_when_paused
         self.worker.open_source(spec, kind)
 
     def open_topic(self) -> LiveTopicDialog:
@@ -380,7 +411,16 @@ class DefinitionGUI(QMainWindow):
 
     def ask_choice(self, title: str, labels: list[str]) -> str | None:
         """One of ``labels``, chosen by the user in a dialog; None when cancelled."""
-        label, ok = QInputDialog.getItem(self, "objrec-define", title, labels, 0, False)
+        dialog = QInputDialog(self)
+        dialog.setWindowTitle("objrec-define")
+        dialog.setLabelText(title)
+        dialog.setComboBoxItems(labels)
+        dialog.setComboBoxEditable(False)
+        dialog.setOkButtonText("&OK")  # mnemonics in every dialog (issue 26 item 14)
+        dialog.setCancelButtonText("&Cancel")
+        ok = dialog.exec() == QInputDialog.DialogCode.Accepted
+        label = dialog.textValue()
+        dialog.deleteLater()
         return label if ok else None
 
     @staticmethod
@@ -412,10 +452,55 @@ class DefinitionGUI(QMainWindow):
         self.show_message(f"Source: {name}")
         self.stage_views.clear()
         self.view3d.clear()
+        if self.worker.paused:
+            if self._first_frame_wanted:
+                self.worker.step()  # paused on the first frame, not on an empty page
+            else:
+                self.stage_views.set_placeholder(f"{name} is open, paused before its first frame: Step or Play "
+                                                 "shows it.")
+                self.view3d.set_busy(f"{name}: paused before the first frame (Step or Play)")
+        self._first_frame_wanted = False
 
     def _source_ended(self, name: str) -> None:
         self.source_bar.set_source_name(name, ended=True)
+        self.seek_bar.source_ended()
+        self._frames_stopped("ended")
         self.show_message(f"{name} ended: parameter changes still apply to its last frame")
+
+    def _frames_stopped(self, why: str) -> None:
+        """No more frames come (paused, ended): the frames-shown rate says so instead of going stale."""
+        self.frame_rate.reset()
+        self.source_bar.set_stopped(why)
+
+    def _show_pixel(self, text: str) -> None:
+        """The pixel read-out: shown while the mouse is over a picture, hidden (its room the messages') when
+        it leaves."""
+        self.hover_label.setText(text)
+        self.hover_label.setVisible(bool(text))
+
+    def _source_warning(self, text: str) -> None:
+        """A source's warning (a folder's file skipped): kept in the message area and shown in the status bar;
+        the log has it already."""
+        self.message_area.add(text, True)
+        self.statusBar().showMessage(text, 30000)
+
+    def _worker_failed(self, text: str) -> None:
+        """A source or a module failed. A source that cannot decode a frame (a truncated video) ends there:
+        the seek bar offers only the frames before it, its thumb goes back to the frame on screen, and with
+        Loop on the recording starts again (once per frame read: a source whose first frame fails stops)."""
+        self.show_message(text, error=True)
+        if text.startswith("processing frame"):  # a module's failure: the source plays on
+            return
+        ended, sought = self.worker.ended, self.seek_bar.pending
+        self.seek_bar.source_failed(text, ended)
+        shown = self.seek_bar.shown
+        if not ended or self.seek_bar.length is None or shown is None:
+            return
+        if sought is not None and sought != shown:
+            self.worker.seek(shown)  # a seek that failed: back to the frame on screen, Step and Play go on
+        elif self.worker.loop and self._restarted_at != self.worker.processed:
+            self._restarted_at = self.worker.processed
+            self.worker.seek(0)
 
     def _follow_kind(self) -> None:
         """Show the page for the pipeline's kind; a spec waiting for a kind opens now, and a pipeline whose
@@ -478,7 +563,7 @@ class DefinitionGUI(QMainWindow):
         content = prepared.content if prepared is not None else None
         if kind.has_points:
             self.central.setCurrentWidget(self.view3d)
-            self.view3d.show_results(results, kind, content)
+            self.view3d.show_results(results, kind, content, preview_step=shown.preview_step)
         else:
             self.central.setCurrentWidget(self.stage_views)
             self.stage_views.show_results(results, kind, content)
@@ -487,7 +572,10 @@ class DefinitionGUI(QMainWindow):
         self.frame_rate.tick(time.perf_counter())
         live = live_counts(self.worker.source)
         dropped = self.worker.dropped - (self._dropped_before if live is not None else 0)  # a topic's: its own
-        self.source_bar.set_rates(self.frame_rate.rate(), results.seconds * 1000, dropped, live)
+        stopped = "paused" if self.worker.paused else "ended" if self.worker.ended else ""
+        if stopped:
+            self.frame_rate.reset()
+        self.source_bar.set_rates(self.frame_rate.rate(), results.seconds * 1000, dropped, live, stopped)
         self.message_area.show_detectors(detector_reasons(results))
         self.panels.show_results(results)
         self.frameShown.emit(shown)
@@ -518,11 +606,22 @@ class DefinitionGUI(QMainWindow):
                 self.show_message(f"selection failed: {exc}", error=True)
 
     def give_selection_to_detectors(self, rect: Rect, results: StageResults) -> None:
-        """The default callback: each detector gets the rectangle with the frame it saw when the user drew it
-        (its own input in that frame's results), in the worker thread, between two frames."""
+        """The default callback: the chosen detector (selection_target.py: the last panel used, the only one
+        that takes selections, or the user's choice) gets the rectangle with the frame it saw when the user
+        drew it (its own input in that frame's results), in the worker thread, between two frames: one change,
+        one undo step."""
+        chosen = self.selection_target.choose()
+        if chosen is None:
+            self.show_message("selection not used: no detector chosen")
+            return
 
         def select() -> SelectionResult:
-            return self.director.process_area_selection(rect, results=results)
+            outcome = SelectionResult()
+            for detector in chosen:
+                one = select_in(detector, rect, results)
+                outcome.accepted += one.accepted
+                outcome.refused.update(one.refused)
+            return outcome
 
         self.worker.call(select, lambda outcome: self._selection_done(rect, outcome))
 
@@ -574,12 +673,20 @@ class DefinitionGUI(QMainWindow):
             self.restoreGeometry(QByteArray(geometry))
         else:
             self.resize(1280, 800)
+        self._layout_size: QSize | None = self.size()  # fitted to the screen when first shown, unless resized
         if isinstance(state, QByteArray | bytes):
             self.restoreState(QByteArray(state))
             hidden_for_stream = str(self.settings.value("window/seek_bar_hidden_for_stream", "false")).lower()
             self.seek_bar.hidden_for_stream = hidden_for_stream == "true" and not self.seek_bar.isVisibleTo(self)
         else:  # a first run: the messages take a strip at the bottom, the views the room
             self.resizeDocks([self.message_area], [MESSAGES_HEIGHT], Qt.Orientation.Vertical)
+
+    def showEvent(self, event: QShowEvent) -> None:  # noqa: N802 - Qt override
+        """A window restored from a larger screen comes back within this one (window_fit.py)."""
+        super().showEvent(event)
+        restored, self._layout_size = self._layout_size, None
+        if restored == self.size() and not self.isMaximized() and not self.isFullScreen():
+            fit_to_screen(self)
 
     def save_layout(self) -> None:
         self.settings.setValue("window/geometry", self.saveGeometry())
@@ -599,6 +706,9 @@ class DefinitionGUI(QMainWindow):
         self.worker.stop()
         self.quality.detach()
         self.panels.detach()
+        self.selection_target.detach()
+        self.source_warnings.detach()
+        self.changes.detach()  # the undo stack clears itself when destroyed: no title update then
         self.undo.detach()  # a closed window leaves no observer on the modules (a caller may keep the system)
         super().closeEvent(event)
 

@@ -78,6 +78,11 @@ def takes_selections(detector: Any) -> bool:
     return own is not None and own is not Detector.process_area_selection
 
 
+#: What a rectangle can do instead when no detector takes it (issue 26 item 14: the eyedropper was unnamed).
+EYEDROPPER_HINT = ("; or, to set an HSV filter's ranges from the pixels in the rectangle, drag with the HSV "
+                   "eyedropper (Ctrl+E, or hold Shift while dragging)")
+
+
 def selection_report(system: RecognitionSystem, rect: Rect, outcome: SelectionResult) -> tuple[str, bool]:
     """The message for a selection's outcome, and whether it is an error: who took it, who refused it and
     why, and plainly when no detector in the pipeline takes selections at all (the rectangle did nothing)."""
@@ -92,7 +97,8 @@ def selection_report(system: RecognitionSystem, rect: Rect, outcome: SelectionRe
         ignored = ", ".join(outcome.accepted)
         parts.append(f"selection {where} did nothing: no detector in the pipeline takes selections"
                      + (f" ({ignored} ignore{'s' if len(outcome.accepted) == 1 else ''} them)" if ignored else "")
-                     + "; add one that learns a target (a feature detector) from the Pipeline menu")
+                     + "; add one that learns a target (a feature detector) from the Pipeline menu"
+                     + EYEDROPPER_HINT)
     return "; ".join(parts), bool(outcome.refused) or not taken
 
 

@@ -35,6 +35,9 @@ from .undo import gestures
 log = logging.getLogger(__name__)
 
 PANEL_GROUP = "objrec.gui_panels"
+#: The narrowest a slider's field (slider and spin box) gets beside its name; narrower, the name goes above
+#: it. Beside a long name (homography_max_iterations) in a 360 px dock the slider was a few pixels long.
+SLIDER_FIELD_MIN_WIDTH = 200
 PanelFactory = Callable[[Parametrizable], QWidget]
 
 
@@ -114,13 +117,18 @@ class ParameterPanel(QGroupBox):
         layout = QVBoxLayout(self)
         self.form = QFormLayout()
         self.form.setFieldGrowthPolicy(QFormLayout.FieldGrowthPolicy.AllNonFixedFieldsGrow)
+        # A row too narrow for its name and field puts the name above: the dock scrolls down, never sideways.
+        self.form.setRowWrapPolicy(QFormLayout.RowWrapPolicy.WrapLongRows)
         layout.addLayout(self.form)
         for spec in self._specs.values():
             editor = editor_for(spec, self)
             editor.edited.connect(self._edited)
-            for slider in editor.findChildren(QSlider):  # a drag is one undo step (changes merge while held)
+            sliders = editor.findChildren(QSlider)
+            for slider in sliders:  # a drag is one undo step (changes merge while held)
                 slider.sliderPressed.connect(gestures.begin)
                 slider.sliderReleased.connect(gestures.end)
+            if sliders:
+                editor.setMinimumWidth(max(SLIDER_FIELD_MIN_WIDTH, editor.minimumSizeHint().width()))
             label = QLabel(spec.name)
             label.setToolTip(editor.toolTip())
             self.form.addRow(label, editor)

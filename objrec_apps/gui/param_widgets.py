@@ -22,7 +22,8 @@ import math
 from collections.abc import Callable
 from typing import Any
 
-from PySide6.QtCore import QObject, QSignalBlocker, Qt, QTimer, Signal
+from PySide6.QtCore import QEvent, QObject, QSignalBlocker, Qt, QTimer, Signal
+from PySide6.QtGui import QKeyEvent, QKeySequence
 from PySide6.QtWidgets import (
     QCheckBox,
     QComboBox,
@@ -53,6 +54,23 @@ FLOAT_LIMIT = 1e12
 MAX_DECIMALS = 8
 
 _NOTHING = object()
+
+#: The keys of the window's Edit > Undo and Redo, which a spin box's own text undo must not swallow.
+WINDOW_UNDO_KEYS = (QKeySequence.StandardKey.Undo, QKeySequence.StandardKey.Redo)
+
+
+class WindowUndoKeys(QObject):
+    """An event filter for a spin box: Ctrl+Z and Ctrl+Shift+Z go to the window's undo and redo (issue 26
+    item 9). A spin box's text undo would only undo keystrokes of a value it has already applied, and by
+    taking the keys it left the window's Undo dead while a spin box had the focus."""
+
+    def eventFilter(self, watched: QObject, event: QEvent) -> bool:  # noqa: N802 - Qt override
+        if event.type() == QEvent.Type.ShortcutOverride and isinstance(event, QKeyEvent):
+            control_z = event.key() == Qt.Key.Key_Z and bool(event.modifiers() & Qt.KeyboardModifier.ControlModifier)
+            if control_z or any(event.matches(key) for key in WINDOW_UNDO_KEYS):
+                event.ignore()  # not overridden: the shortcut (the window's action) fires
+                return True
+        return False
 
 
 class Throttle(QObject):
@@ -211,6 +229,8 @@ class NumberEditor(ParameterEditor):
         spin.setKeyboardTracking(False)  # typing "120" sends 120, not 1, 12 and 120
         spin.setMinimumWidth(80)
         spin.valueChanged.connect(self._spin_changed)
+        self._undo_keys = WindowUndoKeys(spin)
+        spin.installEventFilter(self._undo_keys)
         self.spin = spin
         self.layout().addWidget(spin)
 

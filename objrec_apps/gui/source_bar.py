@@ -57,6 +57,10 @@ class FrameRate:
         while self._stamps and now - self._stamps[0] > self.window:
             self._stamps.popleft()
 
+    def reset(self) -> None:
+        """Frames stopped coming (paused, ended): the next rate counts from the next frames only."""
+        self._stamps.clear()
+
     def rate(self) -> float:
         if len(self._stamps) < 2:
             return 0.0
@@ -124,6 +128,9 @@ class SourceBar(QToolBar):
         sample = self._rates_text(999.9, 9999.9, 999999)  # a live topic's " of N received" may widen it
         self.fps_label.setMinimumWidth(self.fps_label.fontMetrics().horizontalAdvance(sample) + 8)
         self.addWidget(self.fps_label)
+        #: The last rates shown (processing ms, dropped, live counts) and why no frames come ("" while they do).
+        self._last: tuple[float, int, tuple[int, int] | None] | None = None
+        self._stopped = ""
 
     def _kind_changed(self, kind: str) -> None:
         self.camera_action.setVisible(kind == "camera")
@@ -187,21 +194,36 @@ class SourceBar(QToolBar):
         self.name_label.setToolTip(f"{spec} is a source of several data kinds; the pipeline's kind decides which")
 
     @staticmethod
-    def _rates_text(shown_fps: float, processing_ms: float, dropped: int, received: int | None = None) -> str:
+    def _rates_text(shown_fps: float, processing_ms: float, dropped: int, received: int | None = None,
+                    stopped: str = "") -> str:
         of = f" of {received} received" if received is not None else ""
-        return f" {shown_fps:5.1f} frames/s shown · {processing_ms:5.1f} ms processing · {dropped} dropped{of} "
+        shown = f"{stopped}: 0 frames/s shown" if stopped else f"{shown_fps:5.1f} frames/s shown"
+        return f" {shown} · {processing_ms:5.1f} ms processing · {dropped} dropped{of} "
+
+    def set_stopped(self, stopped: str) -> None:
+        """Frames stopped coming (``stopped``: "paused", "ended"); "" when they come again (the next frame's
+        rates follow). The label never goes on showing the rate of a second long past."""
+        if self._last is None or stopped == self._stopped:
+            return
+        processing_ms, dropped, live = self._last
+        self.set_rates(0.0, processing_ms, dropped, live, stopped)
 
     def set_rates(self, shown_fps: float, processing_ms: float, dropped: int,
-                  live: tuple[int, int] | None = None) -> None:
+                  live: tuple[int, int] | None = None, stopped: str = "") -> None:
         """The rates of the frames on screen; ``dropped`` were processed but replaced before the window showed
         them. ``live`` is a live topic's (received, dropped): its messages, and those a newer one replaced
-        before the pipeline took them; both kinds of drop are counted, out of what the topic delivered."""
+        before the pipeline took them; both kinds of drop are counted, out of what the topic delivered.
+        ``stopped`` ("paused", "ended") replaces the frames-shown rate: no frames come, whatever the last
+        second's rate was."""
+        self._last = (processing_ms, dropped, live)
+        self._stopped = stopped
         if live is None:
-            self.fps_label.setText(self._rates_text(shown_fps, processing_ms, dropped))
+            self.fps_label.setText(self._rates_text(shown_fps, processing_ms, dropped, stopped=stopped))
             self.fps_label.setToolTip("")
             return
         received, dropped_by_topic = live
-        self.fps_label.setText(self._rates_text(shown_fps, processing_ms, dropped + dropped_by_topic, received))
+        self.fps_label.setText(self._rates_text(shown_fps, processing_ms, dropped + dropped_by_topic, received,
+                                                stopped))
         self.fps_label.setToolTip(f"{received} messages received from the topic; {dropped_by_topic} replaced by a "
                                   f"newer one before the pipeline took them (the newest frame wins), {dropped} "
                                   "processed but replaced before they were shown")

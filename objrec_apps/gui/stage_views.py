@@ -19,7 +19,7 @@ from PySide6.QtWidgets import QFrame, QGridLayout, QLabel, QStackedLayout, QTabW
 
 from objrec_core import Frame, Kind, StageResults
 
-from .images import FAST_DISPLAY, describe_pixel, display_buffer, fit_size
+from .images import FAST_DISPLAY, describe_pixel, display_buffer, display_keeping_drawing, fit_size
 from .interactive_image import InteractiveImage
 
 log = logging.getLogger(__name__)
@@ -39,6 +39,7 @@ class StageImage:
     title: str
     image: np.ndarray
     display: np.ndarray | None = None  # the image scaled for its view, where the view's size was known
+    base: np.ndarray | None = None  # the picture ``image`` was drawn on (detections), kept visible when scaled
 
 
 def _is_image(value: Any) -> bool:
@@ -74,7 +75,8 @@ def stage_images(
         if stage.role == "input":
             picture = _picture("input", lambda: kind.annotate(results.frame, results.objects))
             if picture is not None:
-                images.append(StageImage("input", "original + detections", picture))
+                base = results.frame.data if _is_image(results.frame.data) else None
+                images.append(StageImage("input", "original + detections", picture, base=base))
         elif stage.role == "filter":
             picture = _picture(stage.id, lambda output=stage.output: kind.preview(output))
             if picture is not None:
@@ -91,12 +93,15 @@ def stage_images(
                 found = type(results.objects)(header=results.objects.header, objects=list(stage.objects))
                 picture = _picture(stage.id, lambda s=stage, a=found: kind.annotate(Frame(s.output), a))
                 if picture is not None:
-                    images.append(StageImage(stage.id, f"{label}: its input + detections", picture))
+                    base = stage.output if _is_image(stage.output) else None
+                    images.append(StageImage(stage.id, f"{label}: its input + detections", picture, base=base))
     for item in images:
         size = sizes.get(item.key) if sizes else None
         if size is not None:
             height, width = item.image.shape[:2]
-            item.display = display_buffer(item.image, fit_size(width, height, *size))
+            fitted = fit_size(width, height, *size)
+            item.display = display_buffer(item.image, fitted) if item.base is None else \
+                display_keeping_drawing(item.image, item.base, fitted)
     return images
 
 

@@ -38,9 +38,11 @@ def recording_topics(path: str) -> list[tuple[str, str, int]] | None:
         return None  # opening it as a source reports the problem in full
 
 
-def with_topic(spec: str, ask: Ask) -> str | None:
+def with_topic(spec: str, ask: Ask, kind: str | None = None) -> str | None:
     """``spec`` with the topic the user chose when it names a recording of several topics; the spec itself
-    when there is nothing to choose; None when the user cancelled."""
+    when there is nothing to choose; None when the user cancelled. With the pipeline's data ``kind``, only
+    the topics of message types its sources read are offered (an image pipeline is not offered a
+    PointCloud2 topic), and the only one is taken without a question."""
     if ":" in spec.split("/", 1)[0] and not spec.lower().startswith("bag:"):
         return spec  # another scheme (demo:, camera:)
     path = spec[4:].split(",", 1)[0] if spec.lower().startswith("bag:") else spec
@@ -49,12 +51,31 @@ def with_topic(spec: str, ask: Ask) -> str | None:
     topics = recording_topics(path)
     if not topics or len(topics) < 2:
         return spec
+    readable = kind_msgtypes(kind)
+    if readable is not None:
+        topics = [topic for topic in topics if topic[1] in readable]
+        if len(topics) == 1:
+            return f"bag:{path},topic={topics[0][0]}"
+        if not topics:
+            return spec  # opening it says the recording holds no topic the pipeline reads
     labels = [f"{name}   ({msgtype}, {count} messages)" for name, msgtype, count in topics]
     chosen = ask(f"{path} holds {len(topics)} topics: play which?", labels)
     if chosen is None:
         return None
     topic = topics[labels.index(chosen)][0]
     return f"bag:{path},topic={topic}"
+
+
+def kind_msgtypes(kind: str | None) -> frozenset[str] | None:
+    """The message types (rosbags' form) the sources of ``kind`` read, as its live source declares them (a
+    recording holds the same messages); None when not known, so every topic is offered."""
+    if kind is None:
+        return None
+    for scheme in LIVE_SCHEMES:
+        reading = live_reading(kind, scheme)
+        if reading.msgtypes:
+            return reading.msgtypes
+    return None
 
 
 #: The live transports' schemes and what the dialog calls them (the transports are plug-ins of objrec_ros).

@@ -84,6 +84,7 @@ class Step(QUndoCommand):
         new = other.values[self.merge_key[1]][1]
         self.values[self.merge_key[1]] = [old, new]
         self.actions = [_parameter_action(self.module, {self.merge_key[1]: (old, new)})]
+        self.setText(other.text())  # the Edit menu names where the drag ended, not its first step
         return True
 
     def redo(self) -> None:

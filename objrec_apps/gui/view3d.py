@@ -28,6 +28,7 @@ from objrec_core import DetectedObjectArray, Kind, Outline, StageResults
 
 from .cloud_render import CloudScene, layer_colour
 from .cloud_view import box_frame
+from .flow_layout import FlowLayout
 from .gl_cloud_view import make_cloud_view
 
 log = logging.getLogger(__name__)
@@ -110,7 +111,10 @@ class View3D(QWidget):
         super().__init__(parent)
         self.cloud_view = make_cloud_view(prefer_gl=prefer_gl)
         self.table = DetectionsTable()
-        controls = QHBoxLayout()
+        # The controls wrap into rows (flow_layout.py): a row of them side by side made a 3D pipeline's window
+        # wider than a 1280 px laptop screen.
+        self.controls = QWidget()
+        controls = FlowLayout(self.controls)
         reset = QPushButton("Reset view")
         reset.setToolTip("Back to the sensor's view of the whole cloud (also: double click, or R)")
         reset.clicked.connect(self.cloud_view.reset_view)
@@ -134,15 +138,19 @@ class View3D(QWidget):
         self.grid.setChecked(self.cloud_view.show_grid)
         self.grid.toggled.connect(self.cloud_view.set_grid)
         controls.addWidget(self.grid)
-        controls.addWidget(QLabel("Point size"))
+        size_box = QWidget()  # the label and its spin box stay on one row
+        size_row = QHBoxLayout(size_box)
+        size_row.setContentsMargins(0, 0, 0, 0)
+        size_row.addWidget(QLabel("Point size"))
         self.point_size = QSpinBox()
         self.point_size.setRange(1, 4)
         self.point_size.setValue(self.cloud_view.point_size)
         self.point_size.valueChanged.connect(self.cloud_view.set_point_size)
-        controls.addWidget(self.point_size)
-        self.layer_box = QHBoxLayout()
-        controls.addLayout(self.layer_box)
-        controls.addStretch(1)
+        size_row.addWidget(self.point_size)
+        controls.addWidget(size_box)
+        #: The layer check boxes go into the flow here, one per layer.
+        self.layer_box = controls
+        self._layers_at = controls.count()
         self.busy = QProgressBar()
         self.busy.setRange(0, 0)  # a moving bar: how long is not known
         self.busy.setMaximumWidth(120)
@@ -152,15 +160,21 @@ class View3D(QWidget):
         self.summary = QLabel()
         controls.addWidget(self.summary)
         self.fps_label = QLabel()
-        self.fps_label.setToolTip("Frames the 3D view really drew in the last second, and the time of the last "
-                                  "one (" + ("OpenGL" if self.cloud_view.uses_opengl else "software renderer")
-                                  + ")")
+        path = self.cloud_view.render_path
+        self.fps_label.setToolTip(f"Frames the 3D view really drew in the last second, and the time of the last "
+                                  f"one. Drawn by the {path.name}: {path.reason}. OBJREC_RENDERER=opengl or "
+                                  f"software overrides the choice. While the view turns, a large cloud is "
+                                  f"thinned; it is drawn whole once the view stops.")
         controls.addWidget(self.fps_label)
         self._fps_timer = QTimer(self)
         self._fps_timer.setInterval(500)
         self._fps_timer.timeout.connect(self.update_rate)
         self._fps_timer.start()
         self._layer_checks: list[QCheckBox] = []
+        #: The thinning step of the coarse preview on screen (0: a full result), and how many of each were shown.
+        self.preview_step = 0
+        self.previews_shown = 0
+        self.full_results_shown = 0
         splitter = QSplitter(Qt.Orientation.Vertical)
         splitter.addWidget(self.cloud_view)
         splitter.addWidget(self.table)
@@ -168,7 +182,7 @@ class View3D(QWidget):
         splitter.setStretchFactor(1, 1)
         layout = QVBoxLayout(self)
         layout.setContentsMargins(0, 0, 0, 0)
-        layout.addLayout(controls)
+        layout.addWidget(self.controls)
         layout.addWidget(splitter, 1)
 
     def update_rate(self) -> None:
@@ -190,8 +204,11 @@ class View3D(QWidget):
         self.busy.setVisible(bool(text))
         self.busy.setToolTip(text)
 
-    def show_results(self, results: StageResults, kind: Kind, scene: CloudScene | None = None) -> None:
-        """Show a frame of data ``kind``; ``scene`` when already merged (by the worker thread)."""
+    def show_results(self, results: StageResults, kind: Kind, scene: CloudScene | None = None,
+                     preview_step: int = 0) -> None:
+        """Show a frame of data ``kind``; ``scene`` when already merged (by the worker thread). ``preview_step``
+        k > 0 marks a coarse preview made on every k-th row and column (preview.py): it is said so until the
+        full result replaces it."""
         if self.is_busy:
             self.set_busy("")
         scene = scene if scene is not None else prepare_scene(results, kind)
@@ -200,7 +217,17 @@ class View3D(QWidget):
         outlines = object_outlines(kind, results.objects)
         self.cloud_view.set_scene(scene, outlines)
         self.table.show_objects(objects, outlines)
-        self.summary.setText(f"{len(objects)} detected · {results.seconds * 1000:.0f} ms")
+        self.preview_step = preview_step
+        if preview_step:
+            self.previews_shown += 1
+            self.summary.setText(f"preview (1/{preview_step * preview_step} of the points) · {len(objects)} "
+                                 f"detected · {results.seconds * 1000:.0f} ms")
+            self.summary.setToolTip("A coarse preview of the new values, on a thinned cloud: the full result "
+                                    "replaces it when it is ready")
+        else:
+            self.full_results_shown += 1
+            self.summary.setText(f"{len(objects)} detected · {results.seconds * 1000:.0f} ms")
+            self.summary.setToolTip("Objects detected in the frame on screen, and the pipeline's time for it")
 
     def clear(self, waiting: str = "waiting for the first frame…") -> None:
         """Empty the view; it shows ``waiting`` (busy) until the next frame."""
@@ -218,11 +245,12 @@ class View3D(QWidget):
         self._layer_checks = []
         for index, name in enumerate(names):
             check = QCheckBox(name)
+            check.setToolTip(f"Show the {name} layer")
             check.setChecked(index not in self.cloud_view.hidden)
             r, g, b = layer_colour(index)
             check.setStyleSheet(f"QCheckBox {{ color: {QColor(r, g, b).darker(130).name()}; font-weight: bold; }}")
             check.toggled.connect(self._layers_toggled)
-            self.layer_box.addWidget(check)
+            self.layer_box.insert_widget(self._layers_at + index, check)
             self._layer_checks.append(check)
 
     def _layers_toggled(self) -> None:

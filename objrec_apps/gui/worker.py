@@ -23,6 +23,7 @@ from PySide6.QtCore import QObject, Signal
 
 from objrec_core import Change, DefinitionDirector, Frame, FrameSource, SourceError, StageResults, open_source
 
+from .preview import PREVIEW_AFTER_S, PreviewRunner
 from .seek_bar import SourceFacts
 
 log = logging.getLogger(__name__)
@@ -36,6 +37,13 @@ class Shown:
     generation: int
     started: float  # time.perf_counter() when processing began
     prepared: Any = None  # what the window's prepare hook made of it in the worker thread
+    #: 0 for a full result; k for a coarse preview made on every k-th row and column (preview.py).
+    preview_step: int = 0
+
+    @property
+    def order(self) -> tuple[int, int]:
+        """What may replace what on screen: a newer parameter set, and the full result over its preview."""
+        return self.generation, 0 if self.preview_step else 1
 
 
 #: Changes that cannot alter what the pipeline finds: no reprocessing for them.
@@ -85,6 +93,7 @@ class ProcessingWorker(QObject):
         fps_limit: float | None = 30.0,
         prepare: Callable[[StageResults], Any] | None = None,
         parent: QObject | None = None,
+        previews: bool = True,
     ) -> None:
         super().__init__(parent)
         self.director = director
@@ -127,6 +136,13 @@ class ProcessingWorker(QObject):
         #: Frames processed, and how many of them were overwritten before the GUI took them.
         self.processed = 0
         self.dropped = 0
+        #: Results never shown because a result of a newer parameter set was already in the mailbox or on
+        #: screen (a full result overtaken by the next change's preview, a preview by its full result).
+        self.discarded = 0
+        self._offered: tuple[int, int] = (-1, 0)  # the order of the newest result put in the mailbox
+        #: Coarse previews after a change when a full result is slow (preview.py); None: previews off.
+        self.previewer = PreviewRunner(director.system, self._offer_preview) if previews else None
+        self._full_seconds = 0.0  # the processing time of the newest full result
         self._watcher = _Watcher(self)
         self._watched: tuple[Any, ...] = ()
         director.system.add_observer(self._watcher)
@@ -150,6 +166,8 @@ class ProcessingWorker(QObject):
             if self._thread.is_alive():
                 log.warning("the processing thread did not stop within %.1f s", timeout)
         self._thread = None
+        if self.previewer is not None:
+            self.previewer.stop(timeout)
         self.director.system.remove_observer(self._watcher)
         for module in self._watched:
             module.remove_observer(self._watcher)
@@ -232,11 +250,17 @@ class ProcessingWorker(QObject):
         return 1.0 / float(rate) if rate and rate > 0 else None
 
     def reprocess(self) -> None:
-        """Parameters or the pipeline changed: show their effect as soon as possible."""
+        """Parameters or the pipeline changed: show their effect as soon as possible (and, when the pipeline
+        is slow, a coarse preview of it at once)."""
         with self._cond:
             self._generation += 1
             self._reprocess_pending = True
+            generation, frame = self._generation, self._last_frame
             self._cond.notify_all()
+        wanted = self.director.system.kind
+        same_kind = self._source_kind is None or wanted is None or wanted == self._source_kind
+        if self.previewer is not None and frame is not None and same_kind and self._full_seconds > PREVIEW_AFTER_S:
+            self.previewer.request(generation, frame, self._full_seconds)
 
     def open_source(self, spec: str, kind: str | None) -> None:
         """Open a source by its spec for data ``kind`` (None: the kind whose source takes the spec), in the
@@ -285,22 +309,42 @@ class ProcessingWorker(QObject):
 
     # -- the director's view (worker thread) --------------------------------------------------------------
     def show_stages(self, results: StageResults) -> None:
-        prepared = None
-        if self.prepare is not None:
-            try:
-                prepared = self.prepare(results)
-            except Exception:
-                log.exception("preparing frame %d for display failed", results.frame.index)
-        shown = Shown(results, self._processing_generation, self._processing_started, prepared)
+        self._full_seconds = results.seconds
+        shown = Shown(results, self._processing_generation, self._processing_started, self._prepared(results))
         with self._cond:
-            if self._latest is not None:
+            self.processed += 1
+        self.offer(shown)
+
+    def _prepared(self, results: StageResults) -> Any:
+        if self.prepare is None:
+            return None
+        try:
+            return self.prepare(results)
+        except Exception:
+            log.exception("preparing frame %d for display failed", results.frame.index)
+            return None
+
+    def _offer_preview(self, results: StageResults, generation: int, step: int) -> None:
+        """A coarse preview from the preview thread (preview.py)."""
+        self.offer(Shown(results, generation, time.perf_counter() - results.seconds, self._prepared(results), step))
+
+    def offer(self, shown: Shown) -> bool:
+        """Put a result in the mailbox for the GUI, unless a result of a newer parameter set (or the full result
+        of the same one, over a preview) is already there or was: a stale result is never shown over a newer
+        one. False when discarded."""
+        with self._cond:
+            if shown.order < self._offered:
+                self.discarded += 1
+                return False
+            self._offered = shown.order
+            if self._latest is not None and not self._latest.preview_step:  # a preview is no frame of its own
                 self.dropped += 1
             self._latest = shown
-            self.processed += 1
             notify = not self._notified
             self._notified = True
         if notify:
             self.resultReady.emit()
+        return True
 
     # -- the thread ---------------------------------------------------------------------------------------
     def _submit(self, command: Callable[[], None], interrupt: bool = False) -> None:
@@ -416,12 +460,12 @@ class ProcessingWorker(QObject):
                 self._report_position(frame)
                 return frame
             self._ended = True
-            self.sourceEnded.emit(self._source.name if self._source else "")
+            self.sourceEnded.emit(self._source.name if self._source is not None else "")
             return None
         except Exception as exc:  # SourceError says what broke; anything else from a source too, not silently
             self._ended = True
             if not isinstance(exc, SourceError):
-                log.exception("source %s failed", self._source.name if self._source else "")
+                log.exception("source %s failed", self._source.name if self._source is not None else "")
             self.failed.emit(str(exc) if isinstance(exc, SourceError) else f"the source failed: {exc}")
             return None
         self._last_frame = frame

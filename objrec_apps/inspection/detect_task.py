@@ -31,7 +31,27 @@ from .locate import Sighting, locate
 log = logging.getLogger(__name__)
 
 
+#: Systems already built, by parameter file (resolved path, size, modification time): a mission that names one
+#: file in many task lists builds it once, as one task shared by every pose already runs one system.
+_BUILT: dict[tuple[str, int, int], tuple[RecognitionSystem, Kind]] = {}
+_BUILT_MAX = 32
+
+
 def _load(path: Path) -> tuple[RecognitionSystem, Kind]:
+    """The system of a parameter file (built once per file and version), see :func:`_build`."""
+    try:
+        info = path.stat()
+        key = (str(path.resolve()), info.st_size, info.st_mtime_ns)
+    except OSError:
+        return _build(path)  # build_system names the problem
+    if key not in _BUILT:
+        if len(_BUILT) >= _BUILT_MAX:
+            _BUILT.pop(next(iter(_BUILT)))
+        _BUILT[key] = _build(path)
+    return _BUILT[key]
+
+
+def _build(path: Path) -> tuple[RecognitionSystem, Kind]:
     """The system of a parameter file, refused unless it detects something and its kind takes camera frames
     (:class:`Invalid` on ``params``: the task's reader reports it at the option's line and key path)."""
     try:

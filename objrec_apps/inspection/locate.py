@@ -3,8 +3,10 @@
 The kind contract gives each object's geometry without naming the kind (``Kind.outlines``): a 3D box is
 placed at its centre, transformed from the optical frame by the camera's pose; a 2D polygon is placed by
 the depth under it (the median over the polygon's pixels, robust to the background its outline takes in)
-along the ray through its centroid. The camera's pose is computed from the pose the robot *believes* it
-has, as on the real robot, so localisation errors show in the positions.
+along the ray through its centroid: a point on the face the camera sees, which the verdict lifts to the
+object's centre with the object's known size (:func:`.verdict.lift_to_centre`). The camera's pose is
+computed from the pose the robot *believes* it has, as on the real robot, so localisation errors show in the
+positions.
 """
 
 from __future__ import annotations
@@ -36,6 +38,8 @@ class Sighting:
     frame: str
     taken_at: float
     range_m: float
+    camera_x: float | None = None  # where the camera stood (map, metres): a polygon's depth is its near face
+    camera_y: float | None = None
 
     def as_dict(self) -> dict[str, Any]:
         d = asdict(self)
@@ -88,5 +92,5 @@ def locate(kind: Kind, array_type: Any, objects: list[Any], frame: Any, believed
             continue
         x, y, z = cam.camera_to_map(optical[None, :])[0]
         found.append(Sighting(str(getattr(obj, "name", outline.label)), float(x), float(y), float(z), method, label,
-                              t, float(np.linalg.norm(optical))))
+                              t, float(np.linalg.norm(optical)), cam.x, cam.y))
     return found

@@ -33,12 +33,15 @@ from declare.fields import read_document as read_yaml_document
 from navigation.poses import PoseFile, load_poses
 from navigation.tasks import PoseTask, make_task
 from strictio import YAMLLimits
+from strictio.limits import MISSION_TASKS, check
 
 from . import detect_task  # noqa: F401 - registers the "detect" task with the patrol's registry
 
 #: A mission lists a few poses and tasks: a megabyte is plenty, and never a bomb.
 MISSION_LIMITS = YAMLLimits(max_bytes=1024 * 1024, max_depth=12)
 DEFAULT_TOLERANCE = 0.5
+#: The most laps a mission may ask for: objrec-inspect's and objrec-patrol's own --laps bound.
+MAX_LAPS = 100_000
 
 #: A mission file that cannot be used: the one error of every file reader (file, line, key path, value, rule).
 MissionError = DocumentError
@@ -66,7 +69,7 @@ _EXPECT = Record({
 MISSION_FIELDS = Record({
     "poses": FilePath(required=True, doc="the goal-pose file"),
     "first_pose": Int(0, "the pose the patrol starts at", min=0),
-    "laps": Int(1, "how many laps", min=1),
+    "laps": Int(1, "how many laps", min=1, max=MAX_LAPS),
     "stop_on_failure": Bool(False, "an aborted goal or task ends the mission"),
     "tolerance": Value(_DISTANCE),
     "tasks": _TASKS,
@@ -110,10 +113,23 @@ def _expected(items: tuple[dict[str, Any], ...], at: Place, tolerance: float) ->
     return tuple(found)
 
 
+def _listed_tasks(data: Any) -> int:
+    """How many tasks a mission file lists (its ``tasks`` and every pose's), counted before any is built: each
+    ``detect`` builds a recognition system and runs it at every visit, so 20,000 of them would keep the patrol
+    busy for hours (issue 27)."""
+    if not isinstance(data, dict):
+        return 0
+    lists = [data.get("tasks")]
+    if isinstance(data.get("at"), dict):
+        lists += [entry.get("tasks") for entry in data["at"].values() if isinstance(entry, dict)]
+    return sum(len(tasks) for tasks in lists if isinstance(tasks, list))
+
+
 def load_mission(path: str | Path) -> Mission:
     """Read and check a mission file, its pose file and every task's options (parameter files included)."""
     document = read_yaml_document(path, MISSION_LIMITS, "mission")
     root = document.root
+    check(document.path, MISSION_TASKS, _listed_tasks(document.data), "tasks listed")
     data = MISSION_FIELDS.read(document.data, root)
     poses_path: Path = data["poses"]
     poses = load_poses(poses_path)

@@ -56,6 +56,18 @@ def changed_world(world: World, remove: Sequence[str] = (), shift: Sequence[tupl
     return world, changes
 
 
+def _start_refused(exc: StartPoseError, pose: Pose2D, occ_map: OccupancyMap, world: World, config: SimConfig,
+                   map_path: Path | str, world_path: Path | str) -> str:
+    """The simulator's refusal of a start pose, naming the file that puts something there: the world file
+    and its objects on the pose, else the map (off it, or inside one of its obstacles)."""
+    inside = world.colliding(pose.x, pose.y, config.robot.radius)
+    if inside:
+        names = ", ".join(repr(name) for name in inside)
+        return f"{world_path or world.source}: {names} {'stands' if len(inside) == 1 else 'stand'} on the start " \
+               f"pose ({pose.x:.3f}, {pose.y:.3f}): the robot (radius {config.robot.radius:g} m) cannot start there"
+    return f"{map_path or occ_map.source}: {exc}"
+
+
 class Inspection:
     """A mission ready to run; ``report`` fills up visit by visit as the patrol goes."""
 
@@ -77,10 +89,11 @@ class Inspection:
         station = DockingStation.in_front_of(station_pose) if station_pose else None
         config = config or SimConfig()
         try:
-            self.sim = Simulation(occ_map, start or station_pose or goals[mission.first_pose], config,
+            self.sim = Simulation(occ_map, self.sim_start(start, station_pose, goals, mission), config,
                                   station=station, world=self.world)
         except StartPoseError as exc:
-            raise InspectionError(str(exc)) from None
+            raise InspectionError(_start_refused(exc, self.sim_start(start, station_pose, goals, mission), occ_map,
+                                                 self.world, config, map_path, world_path)) from None
         # move_base's local costmap reads the laser, which sees the world's obstacles: drive round them.
         # It marks within 2.5 m and clears within 3 m, so a scan of that reach with a beam every 0.36 degrees
         # (1.6 cm apart at 2.5 m, a third of a map cell) tells it as much as the full scan, for a fraction of it.
@@ -95,9 +108,14 @@ class Inspection:
             "changes": list(changes)})
         self.machine.visit_listeners.append(self.report.add_visit)
 
+    @staticmethod
+    def sim_start(start: Pose2D | None, station_pose: Pose2D | None, goals: list[Pose2D], mission: Mission) -> Pose2D:
+        """Where the robot starts: ``--start``, else the docking station's pose, else the mission's first pose."""
+        return start or station_pose or goals[mission.first_pose]
+
     def capture(self) -> Any:
         """A frame of the robot's camera now, from where the robot really is."""
-        return self.camera.render(self.world, self.map, self.sim.robot.pose, self.sim.clock.now)
+        return self.camera.render(self.sim.world, self.map, self.sim.robot.pose, self.sim.clock.now)
 
     def run(self, time_limit: float | None = None, realtime: bool = False, handle_sigint: bool = True) -> Summary:
         summary = run_patrol(self.machine, time_limit=time_limit, realtime=realtime, handle_sigint=handle_sigint)
@@ -112,7 +130,7 @@ class Inspection:
                 counts[v.status] = counts.get(v.status, 0) + 1
             caption = (f"{self.mission.path.name}: {summary.outcome}  visits {len(self.report.visits)}  "
                        + "  ".join(f"{k.replace('_', ' ')} {n}" for k, n in sorted(counts.items())))
-        return draw_inspection(self.map, self.reference, self.world, self.report, self.sim.trajectory,
+        return draw_inspection(self.map, self.reference, self.sim.world, self.report, self.sim.trajectory,
                                self.machine.goals, self.sim.collision_points, caption)
 
     def write(self, summary: Summary) -> list[Path]:

@@ -4,17 +4,24 @@ Frames taken at several headings see the same object more than once: sightings o
 ``MERGE_RADIUS`` are one object, placed at their mean. An expected object is ``present`` when an object
 of its label was found within its tolerance of where the world file puts it, ``moved`` when the nearest
 one is farther, ``absent`` when none was found, and ``not_checked`` when no detection that looks for its
-label ran at the visit (the goal was not reached, or the pose's tasks do not look for it).
+label ran at the visit (the goal was not reached, or the pose's tasks do not look for it), with the reason.
+
+A 2D detection is placed by the depth under its outline: a point on the face the camera sees, up to half the
+object's depth in front of its centre. Before it is compared, it is lifted to the centre along the camera's
+line of sight by the expected object's known size (:func:`lift_to_centre`), so a box moved 0.35 m toward the
+camera, within a 0.5 m tolerance, reads present rather than "moved, 0.54 m".
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
-from navigation.world import World
+import numpy as np
+
+from navigation.world import World, WorldObject
 
 from .locate import Sighting
 from .mission import Expected
@@ -35,10 +42,12 @@ class Found:
     z: float
     method: str
     sightings: int
+    camera: tuple[float, float] | None = None  # mean camera position of the sightings (map, metres)
+    lifted: float = 0.0  # metres moved from the seen face to the object's centre (2D detections)
 
     def as_dict(self) -> dict[str, Any]:
         return {"name": self.name, "x": round(self.x, 3), "y": round(self.y, 3), "z": round(self.z, 3),
-                "method": self.method, "sightings": self.sightings}
+                "method": self.method, "sightings": self.sightings, "lifted_m": round(self.lifted, 3)}
 
 
 @dataclass(frozen=True)
@@ -50,6 +59,10 @@ class Verdict:
     tolerance: float
     found: Found | None = None
     error: float | None = None  # horizontal distance (metres) between found and expected
+    reason: str = ""  # why it was not checked
+
+    def with_reason(self, reason: str) -> Verdict:
+        return replace(self, reason=reason)
 
     def as_dict(self) -> dict[str, Any]:
         return {"name": self.name, "label": self.label, "status": self.status,
@@ -57,7 +70,7 @@ class Verdict:
                              "z": round(self.expected[2], 3)},
                 "tolerance_m": self.tolerance,
                 "found": self.found.as_dict() if self.found else None,
-                "error_m": None if self.error is None else round(self.error, 3)}
+                "error_m": None if self.error is None else round(self.error, 3), "reason": self.reason}
 
 
 def merge(sightings: Sequence[Sighting], radius: float = MERGE_RADIUS) -> list[Found]:
@@ -71,7 +84,39 @@ def merge(sightings: Sequence[Sighting], radius: float = MERGE_RADIUS) -> list[F
                 break
         else:
             groups.append([s])
-    return [Found(g[0].name, _mean(g, "x"), _mean(g, "y"), _mean(g, "z"), g[0].method, len(g)) for g in groups]
+    return [Found(g[0].name, _mean(g, "x"), _mean(g, "y"), _mean(g, "z"), g[0].method, len(g), _viewpoint(g))
+            for g in groups]
+
+
+def _viewpoint(group: Sequence[Sighting]) -> tuple[float, float] | None:
+    """Where the camera stood for a group's sightings (their mean), when they say."""
+    seen = [(s.camera_x, s.camera_y) for s in group if s.camera_x is not None and s.camera_y is not None]
+    if not seen:
+        return None
+    return (sum(x for x, _ in seen) / len(seen), sum(y for _, y in seen) / len(seen))
+
+
+def lift_to_centre(found: Found, thing: WorldObject) -> Found:
+    """A 2D detection (its seen face) moved along the line of sight to where the centre of ``thing`` would be.
+
+    The depth behind the face is measured on the expected object's own outline, entered along the same line
+    of sight; a 3D box detection is already a centre, and a sighting without its camera cannot be lifted.
+    """
+    if found.method != "polygon" or found.camera is None:
+        return found
+    dx, dy = found.x - found.camera[0], found.y - found.camera[1]
+    norm = math.hypot(dx, dy)
+    if norm < 1e-9:
+        return found
+    ux, uy = dx / norm, dy / norm
+    outline = thing.footprint()
+    back = outline.radius + 1.0  # a start outside the outline, on the camera's side
+    entry = float(outline.ray_distances(outline.x - back * ux, outline.y - back * uy,
+                                        np.array([ux]), np.array([uy]))[0])
+    if not math.isfinite(entry):
+        return found
+    depth = max(0.0, back - entry)
+    return replace(found, x=found.x + depth * ux, y=found.y + depth * uy, lifted=depth)
 
 
 def _mean(group: Sequence[Sighting], axis: str) -> float:
@@ -82,7 +127,7 @@ def judge(expected: Sequence[Expected], found: Sequence[Found], world: World, lo
     """A verdict for each expected object; ``world`` is the world file (where the objects should be)."""
     verdicts = []
     for e in expected:
-        where = _centre(world, e.name)
+        where = centre_of(world, e.name)
         if e.label not in looked_for:
             verdicts.append(Verdict(e.name, e.label, NOT_CHECKED, where, e.tolerance))
             continue
@@ -90,6 +135,8 @@ def judge(expected: Sequence[Expected], found: Sequence[Found], world: World, lo
         if not candidates:
             verdicts.append(Verdict(e.name, e.label, ABSENT, where, e.tolerance))
             continue
+        thing = next(o for o in world.objects if o.name == e.name)
+        candidates = [lift_to_centre(f, thing) for f in candidates]
         best = min(candidates, key=lambda f: math.hypot(f.x - where[0], f.y - where[1]))
         error = math.hypot(best.x - where[0], best.y - where[1])
         status = PRESENT if error <= e.tolerance else MOVED
@@ -97,7 +144,7 @@ def judge(expected: Sequence[Expected], found: Sequence[Found], world: World, lo
     return verdicts
 
 
-def _centre(world: World, name: str) -> tuple[float, float, float]:
+def centre_of(world: World, name: str) -> tuple[float, float, float]:
     """The middle of a world object: where a detector should place it."""
     x, y, z = next(o for o in world.objects if o.name == name).centre
     return (float(x), float(y), float(z))

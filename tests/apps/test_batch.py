@@ -90,7 +90,7 @@ def test_eight_recordings_on_two_workers(project_root: Path, recordings: dict[st
     assert [r["source"] for r in rows] == sources
     assert [r["output"] for r in rows] == expected_names
     assert list(rows[0]) == ["source", "output", "frames", "frames_with_objects", "objects", "frames_per_s",
-                             "seconds", "status"]
+                             "seconds", "status", "runs"]
 
     broken = rows[-1]
     assert broken["status"] == f"failed: {recordings['broken.avi']}: cannot open video file"

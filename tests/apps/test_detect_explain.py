@@ -82,7 +82,7 @@ def test_binary_detector_reasons_on_stderr_and_the_whole_frame_is_no_object(proj
     cases = [
         (np.full((480, 640, 3), 128, np.uint8),
          "no blob: the mask has no non-zero pixel (the filters before let nothing through)"),
-        (saturated, "1 blob, none kept: 1 touching the image border (border_blobs is off)"),
+        (saturated, "1 blob, none kept: 1 covering more than max_area_fraction 0.9 of the image (smallest 100%)"),
         (specks, "1 blob, none kept: 1 shorter than min_contour_length 40 px (longest 16 px)"),
     ]
     for index, (picture, reason) in enumerate(cases):
@@ -297,7 +297,8 @@ def test_a_side_file_that_cannot_be_written_is_one_line_and_exit_2(project_root,
     assert len(out.splitlines()) == 2  # the frame that failed is written to stdout before its reasons
     code, out, err = run_main(capsys, params, "-s", str(frames), f"--explain={tmp_path}")
     assert code == 2 and out == ""
-    assert err == f"objrec-detect: error: {tmp_path}: cannot be written: it is a folder\n"
+    assert err == (f"objrec-detect: error: {tmp_path}: refused as --explain: it is a folder, not a regular file; "
+                   "nothing was written\n")
     same = tmp_path / "both.jsonl"
     code, out, err = run_main(capsys, params, "-s", str(frames), "-o", str(same), f"--explain={same}")
     assert code == 2 and "the same file as --output" in err and len(err.splitlines()) == 1

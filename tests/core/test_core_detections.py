@@ -17,7 +17,7 @@ from objrec_core import DetectionDirector, RecognitionSystem, Rect
 from objrec_core.modules import Detections, detection_reason
 
 EMPTY_REASON = "no blob: the mask has no non-zero pixel (the filters before let nothing through)"
-BORDER_REASON = "1 blob, none kept: 1 touching the image border (border_blobs is off)"
+BORDER_REASON = "1 blob, none kept: 1 covering more than max_area_fraction 0.9 of the image (smallest 99%)"
 
 
 def empty_mask() -> np.ndarray:

@@ -181,10 +181,10 @@ def box_system(shared_data: Path) -> RecognitionSystem:
 REAL_ROWS: dict[tuple[str, str], tuple[str, str, str, Callable[[Path], RecognitionSystem]]] = {
     ("`params/hsv_demo.yaml`", "smarties.png"): ("2d", "images/smarties.png", "smarties.coco.json",
                                                  lambda data: hsv_system()),
-    ("the same, `border_blobs: true`", "smarties.png"): ("2d", "images/smarties.png", "smarties.coco.json",
-                                                         lambda data: hsv_system(border_blobs=True)),
-    ("the same, `border_blobs: true`, `v_min: 20`", "smarties.png"): (
-        "2d", "images/smarties.png", "smarties.coco.json", lambda data: hsv_system(border_blobs=True, v_min=20)),
+    ("the same, `border_blobs: false` (the previous default)", "smarties.png"): (
+        "2d", "images/smarties.png", "smarties.coco.json", lambda data: hsv_system(border_blobs=False)),
+    ("the same, `v_min: 20`", "smarties.png"): (
+        "2d", "images/smarties.png", "smarties.coco.json", lambda data: hsv_system(v_min=20)),
     ("`params/feature_demo.yaml`, target box.png", "box_in_scene.png"): (
         "2d", "images/box_in_scene.png", "box_in_scene.coco.json", box_system),
     ("`params/shape_demo.yaml`", "table_scene_mug_stereo_textured.pcd"): (

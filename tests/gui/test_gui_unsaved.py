@@ -119,12 +119,26 @@ def test_the_description_follows_the_values_unless_it_is_the_users(make_gui, mon
     assert yaml.safe_load(target.read_text())["description"] == "The red disk, for the demo."
 
 
-def test_a_shipped_description_is_the_authors_own_text(make_gui, monkeypatch, tmp_path):
+def test_a_shipped_description_is_the_authors_own_text_until_the_system_is_tuned(make_gui, monkeypatch, tmp_path):
+    """Issue 26 item 14: a system started from a shipped file (objrec-define hsv) and tuned is no longer what
+    the shipped description says; saved untuned, the author's text stays."""
     gui = hsv_window(make_gui)
+    gui.files.set_origin("hsv_demo.yaml")  # what objrec-define does for a shipped system
     written = gui.system.description
     assert written.startswith("Saturated objects") and gui.changes.description_is_users
-    target = tmp_path / "kept.yaml"
-    patch_dialogs(monkeypatch, save_path=target)
-    gui.system.module("colour").set_parameters(h_min=5)
+    untuned = tmp_path / "kept.yaml"
+    patch_dialogs(monkeypatch, save_path=untuned)
     gui.save_as_action.trigger()
-    assert yaml.safe_load(target.read_text())["description"] == written
+    assert yaml.safe_load(untuned.read_text())["description"] == written
+    gui.files.set_origin("hsv_demo.yaml")
+    gui.system.module("colour").set_parameters(h_min=5)
+    tuned = tmp_path / "tuned.yaml"
+    patch_dialogs(monkeypatch, save_path=tuned)
+    gui.save_as_action.trigger()
+    text = yaml.safe_load(tuned.read_text())["description"]
+    assert text == describe(gui.system) and "h_min 5" in text
+    # a file of the user's own keeps the text, tuned or not
+    gui.files.load(untuned)
+    gui.system.module("colour").set_parameters(h_min=9)
+    gui.save_action.trigger()
+    assert yaml.safe_load(untuned.read_text())["description"] == written

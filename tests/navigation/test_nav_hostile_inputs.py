@@ -144,7 +144,7 @@ def test_a_map_png_claiming_30000x30000_cells_is_refused_from_its_header(tmp_pat
     (tmp_path / "bomb.png").write_bytes(png_bomb(30000, 30000))
     _lab_map(tmp_path, "bomb.png")
     refused(patrol(LAB / "lab_poses.txt", "map.yaml", tmp_path), "map.yaml:1: image: ",
-            "bomb.png: map of 30000x30000 cells: 900,000,000 cells, over the limit of 25,000,000 cells "
+            "bomb.png: map of 30000x30000 cells: 900,000,000 cells, over the limit of 4,000,000 cells "
             "(set OBJREC_MAX_MAP_CELLS to raise it)")
 
 
@@ -152,7 +152,7 @@ def test_a_map_pgm_over_the_cell_limit_and_then_the_pixel_limit(tmp_path):
     (tmp_path / "big.pgm").write_bytes(b"P5\n# a few bytes that claim a lot\n6000 6000\n255\n" + b"\xfe" * 64)
     _lab_map(tmp_path, "big.pgm")
     refused(patrol(LAB / "lab_poses.txt", "map.yaml", tmp_path),
-            "big.pgm: map of 6000x6000 cells: 36,000,000 cells, over the limit of 25,000,000 cells")
+            "big.pgm: map of 6000x6000 cells: 36,000,000 cells, over the limit of 4,000,000 cells")
     # With the cell limit raised for a real huge map, the pixel limit still stands before decoding.
     (tmp_path / "big.pgm").write_bytes(b"P5\n30000 30000\n255\n" + b"\xfe" * 64)
     run = patrol(LAB / "lab_poses.txt", "map.yaml", tmp_path, env={"OBJREC_MAX_MAP_CELLS": "10_000_000_000"})

@@ -274,7 +274,9 @@ def test_goals_are_reached_with_5_percent_odometry_noise_thanks_to_amcl(b5203_ma
 
 
 def test_without_localization_the_same_noise_misses_goals(b5203_map, b5203_poses):
-    _sim, summary, arrivals = patrol(b5203_map, b5203_poses, "odometry")
+    # Four laps: the drift grows with the distance driven (three laps left it at 0.298 m once the controller
+    # slowed near obstacles, four at 0.42 m).
+    _sim, summary, arrivals = patrol(b5203_map, b5203_poses, "odometry", laps=4)
     assert summary.localization == "odometry"
     assert summary.localization_error_max > 0.3
     missed = [a for a in arrivals if a[0] != "SUCCEEDED" or a[1] > 0.15]

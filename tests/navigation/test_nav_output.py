@@ -92,4 +92,4 @@ def test_mermaid_marks_the_active_states(tmp_path):
     assert "class LAPTOP_BATTERY_MONITOR,MONITORED_PATROL,PATROL,POSE_1,ROBOT_BATTERY_MONITOR active" in text
     raw = write_diagram(tmp_path / "m.mmd", 3, active).read_text()
     assert raw == text
-    assert len(patrol_states(3)) == 5
+    assert len(patrol_states(3)) == 6

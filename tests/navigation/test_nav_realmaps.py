@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from navigation.costmap import ObstacleField
-from navigation.geometry import Pose2D
+from navigation.lost_scenarios import spread_goals
 from navigation.maps import load_map
 from navigation.patrol import PatrolMachine
 from navigation.planner import Planner
@@ -23,24 +23,6 @@ MAPS = {
 }
 
 
-def free_space_poses(planner: Planner, n: int, seed: int, min_clearance: float = 0.4) -> list[Pose2D]:
-    """``n`` poses spread over the largest free region, each ``min_clearance`` m from any obstacle."""
-    labels = planner.labels
-    counts = np.bincount(labels.ravel())
-    counts[0] = 0
-    rows, cols = np.nonzero((labels == counts.argmax()) & (planner.clear >= min_clearance))
-    m = planner.field.map
-    pts = np.array([m.cell_to_world(i - 1, j - 1) for i, j in zip(cols, rows, strict=True)])
-    rng = np.random.default_rng(seed)
-    chosen = [int(rng.integers(len(pts)))]
-    dist = np.hypot(*(pts - pts[chosen[0]]).T)
-    for _ in range(n - 1):  # farthest-point sampling: the patrol crosses the whole map
-        k = int(dist.argmax())
-        chosen.append(k)
-        dist = np.minimum(dist, np.hypot(*(pts - pts[k]).T))
-    return [Pose2D(float(pts[k][0]), float(pts[k][1]), float(rng.uniform(-np.pi, np.pi))) for k in chosen]
-
-
 @pytest.mark.parametrize(("name", "n_goals", "laps", "seed"),
                          [("turtlebot3_world", 6, 2, 0), ("turtlebot3_world", 8, 1, 7), ("willow", 6, 1, 0),
                           ("willow", 8, 1, 5)])
@@ -48,7 +30,7 @@ def test_patrol_completes_its_laps_without_collision(shared_data, name, n_goals,
     occ_map = load_map(shared_data / MAPS[name])
     field = ObstacleField(occ_map)
     planner = Planner(field)
-    goals = free_space_poses(planner, n_goals, seed)
+    goals = spread_goals(planner, n_goals, seed)
     sim = Simulation(occ_map, goals[-1], SimConfig(), field_=field, planner=planner)
     machine = PatrolMachine(sim, goals, station_pose=None, max_laps=laps)
     summary = run_patrol(machine, handle_sigint=False)
@@ -75,7 +57,7 @@ def test_patrol_completes_its_laps_without_collision(shared_data, name, n_goals,
 def test_plans_keep_clear_of_inflated_obstacles(shared_data, name):
     occ_map = load_map(shared_data / MAPS[name])
     planner = Planner(ObstacleField(occ_map))
-    goals = free_space_poses(planner, 6, 11)
+    goals = spread_goals(planner, 6, 11)
     for a, b in itertools.pairwise(goals):
         plan = planner.plan(a, b)
         assert plan.ok, plan.reason

@@ -353,3 +353,51 @@ def test_a_photo_without_an_output_folder_is_kept_for_the_next_task(make_patrol,
     assert (result["status"], result["text"], result["files"]) == ("succeeded", "taken, not saved (no output folder)",
                                                                     [])
     assert kept == [1] and machine.entered[-1] == "SHUTDOWN"
+
+
+class LateBoomTask(PoseTask):
+    """Fails in a timer's callback, as ``detect`` runs its work after settling."""
+
+    kind = "late_boom"
+    state = "LATE_BOOM"
+
+    def start(self, ctx: TaskContext) -> None:
+        ctx.after(0.5, self._explode)
+
+    def _explode(self) -> None:
+        raise RuntimeError("speaker broken")
+
+
+def test_a_task_failing_in_its_delayed_callback_aborts_that_task_only(make_patrol, goals):
+    machine = make_patrol(goals[:2], max_laps=1, tasks=[[LateBoomTask()], [WaitTask()]])
+    run_patrol(machine, handle_sigint=False)
+    results = [(r["task"], r["status"], r["text"]) for r in machine.sim.events.of_type("task_result")]
+    assert ("late_boom", "aborted", "error: RuntimeError: speaker broken") in results
+    assert ("wait", "succeeded") in [(task, status) for task, status, _ in results]  # the patrol went on
+    assert machine.entered[-1] == "SHUTDOWN"
+
+
+class CountingLookTask(PoseTask):
+    """Takes ``n`` frames, then checks that the visit keeps them on disk and gives each back whole."""
+
+    kind = "count_look"
+    state = "COUNT_LOOK"
+    seen: ClassVar[list[Any]] = []
+
+    def start(self, ctx: TaskContext) -> None:
+        for _ in range(20):
+            ctx.capture("look")
+        shots = list(ctx.visit.frames)
+        CountingLookTask.seen = [(shot._frame is None, shot._file is not None and shot._file.is_file(),
+                                  shot.frame.color.shape) for shot in shots]
+        CountingLookTask.folder = shots[0]._file.parent
+        ctx.succeed("looked")
+
+
+def test_the_frames_of_a_visit_are_on_disk_until_it_ends(make_patrol, goals):
+    box: list[PatrolMachine] = []
+    machine = make_patrol(goals[:1], max_laps=1, tasks=[[CountingLookTask()]], camera=yaw_camera(box))
+    box.append(machine)
+    run_patrol(machine, handle_sigint=False)
+    assert CountingLookTask.seen == [(True, True, (48, 64, 3))] * 20
+    assert not CountingLookTask.folder.exists()  # removed when the visit ended

@@ -125,7 +125,8 @@ def test_a_moving_obstacle_goes_back_and_forth():
     ("objects:\n  - {name: s, shape: sphere, radius: 0.1, path: [[0, 0], [1, 1]], speed: 1}",
      r":2: objects\[0\].path: only obstacles can move"),
     ("obstacles:\n  - {name: w, shape: box, width: 1, depth: 1, height: 1, x: 1, path: [[0, 0], [1, 1]], speed: 1}",
-     r":2: obstacles\[0\].x: unknown key \(allowed: name, shape, z, yaw, color, width, depth, height, path, speed\)"),
+     r":2: obstacles\[0\].x: unknown key "
+     r"\(allowed: name, shape, z, yaw, color, width, depth, height, path, speed, avoid\)"),
     ("obstacles:\n  - {name: w, shape: sphere, radius: 1, x: 1, y: 1}",
      r":2: obstacles\[0\].shape: 'sphere' is invalid: one of box, cylinder"),
     ("obstacles:\n  - {name: w, shape: cylinder, radius: 1, height: 1, path: [[0, 0]], speed: 1}",
@@ -262,7 +263,7 @@ def test_the_simulation_collides_with_world_objects():
 
 def test_a_moving_obstacle_runs_into_the_robots_way():
     walker = MovingObstacle(WorldObject("w", "cylinder", 3.0, 0.5, radius=0.25, height=1.7), (3.0, 0.5),
-                            (3.0, 3.5), 1.0)
+                            (3.0, 3.5), 1.0, avoid="none")  # blind to the robot: it walks into it
     sim = Simulation(room(), Pose2D(1.0, 2.0, 0.0), world=World((), (walker,)))
     sim.teleop = (0.3, 0.0)  # crosses the walker's path at y = 2 while it goes up and down
     sim.run_for(12.0)

@@ -62,8 +62,8 @@ def test_a_diagram_on_a_full_disk_is_an_error_and_the_old_one_stays(tmp_path):
 def test_a_diagram_onto_a_device_leaves_the_device_node(tmp_path):
     device = char_device(tmp_path)
     result, _ = patrol_on_full_disk(["--diagram", str(device)], limit=None)
-    assert the_one_error_line(result) == (f"objrec-patrol: error: {device}: cannot save: it is a character device, "
-                                          "not a regular file; it is left as it is")
+    assert the_one_error_line(result) == (f"objrec-patrol: error: {device}: refused as --diagram: it is a character "
+                                          "device, not a regular file; nothing was written")
     assert stat.S_ISCHR(device.stat().st_mode) and device.stat().st_rdev == os.makedev(1, 7)
 
 

@@ -97,6 +97,16 @@ def read_mcap(path: Path) -> dict[str, list[tuple[int, str, dict[str, Any]]]]:
     return found
 
 
+def _declares_truncated() -> bool:
+    """Whether the 2D object message has the ``truncated`` flag (a JSON line leaves it out when False)."""
+    from objrec2d.messages import DetectedObject2DArray
+
+    return any("truncated" in text for text in DetectedObject2DArray.ros_definitions.values())
+
+
+_TRUNCATED_2D = _declares_truncated()
+
+
 def expected(line: dict[str, Any], ros1: bool) -> dict[str, Any]:
     """A JSON line as the typed message holds it: ROS names for the stamp, no seq in ROS 2, the ROS defaults
     of fields a JSON line leaves out (a 3D object without a shape fit), Point32 coordinates as float32."""
@@ -109,7 +119,8 @@ def expected(line: dict[str, Any], ros1: bool) -> dict[str, Any]:
     for obj in line["objects"]:
         if "polygon" in obj:
             points = [{k: float(np.float32(v)) for k, v in p.items()} for p in obj["polygon"]["points"]]
-            objects.append({"name": obj["name"], "polygon": {"points": points}})
+            flags = {"truncated": bool(obj.get("truncated", False))} if _TRUNCATED_2D else {}
+            objects.append({"name": obj["name"], "polygon": {"points": points}, **flags})
         else:
             objects.append({"shape": "", "radius": 0.0, "inliers": 0, **obj})
     return {"header": typed_header, "objects": objects}
@@ -402,9 +413,12 @@ def test_copy_input_gives_both_topics_and_the_detections_carry_the_bag_stamps(pr
         assert sorted(found) == ["/camera/image_raw", "/objrec/coloured_object"]  # /chatter was not read: not copied
         detections, images = found["/objrec/coloured_object"], found["/camera/image_raw"]
         assert len(detections) == len(images) == len(json_lines) == 4
-        for (log_time, _, message), line, stamp in zip(detections, json_lines, stamps, strict=True):
+        for (log_time, _, message), line, stamp, (image_time, _, _) in zip(detections, json_lines, stamps, images,
+                                                                          strict=True):
             assert message == expected(line, ros1)  # field for field, stamps included: they come from the bag
-            assert abs(log_time / 1e9 - stamp) < 1e-6
+            header_stamp = message["header"]["stamp"]
+            assert abs(header_stamp["sec"] + header_stamp["nanosec"] / 1e9 - stamp) < 1e-6
+            assert log_time == image_time  # one timeline: the detection is logged when its input message was
             assert line["header"]["frame_id"] == "camera_optical"
         with AnyReader([source]) as reader:
             originals = [plain(reader.deserialize(raw, c.msgtype))
@@ -435,7 +449,10 @@ def test_copy_input_with_a_start_window(project_root, tmp_path, image_bags):
     assert result.returncode == 0, result.stderr
     found = read_mcap(out)
     assert len(found["/camera/image_raw"]) == len(found["/objrec/coloured_object"]) == 2
-    assert [round(m[0] / 1e9, 3) for m in found["/objrec/coloured_object"]] == [round(s, 3) for s in stamps[2:]]
+    detections, images = found["/objrec/coloured_object"], found["/camera/image_raw"]
+    assert [m[0] for m in detections] == [m[0] for m in images]  # logged beside their inputs
+    header_stamps = [m[2]["header"]["stamp"] for m in detections]
+    assert [round(h["sec"] + h["nanosec"] / 1e9, 3) for h in header_stamps] == [round(s, 3) for s in stamps[2:]]
 
 
 @needs_bag_source

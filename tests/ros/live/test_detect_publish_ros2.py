@@ -59,6 +59,7 @@ class Polygon(IdlStruct, typename="geometry_msgs::msg::dds_::Polygon_"):
 class DetectedObject2D(IdlStruct, typename="object_detection_2d_msgs::msg::dds_::DetectedObject2D_"):
     name: str
     polygon: Polygon
+    truncated: bool
 
 @dataclass
 class DetectedObject2DArray(IdlStruct, typename="object_detection_2d_msgs::msg::dds_::DetectedObject2DArray_"):

@@ -56,8 +56,9 @@ def _messages(store) -> dict[str, object]:
             roi=t["sensor_msgs/msg/RegionOfInterest"](x_offset=1, y_offset=2, height=3, width=4, do_rectify=True)),
         DetectedObject2DArray.ros_type: t[DetectedObject2DArray.ros_type](
             header=_header(store), objects=[
-                t["object_detection_2d_msgs/msg/DetectedObject2D"](name=name, polygon=t["geometry_msgs/msg/Polygon"](
-                    points=[point(x=float(x), y=float(x) / 2, z=0.0) for x in range(k)]))
+                t["object_detection_2d_msgs/msg/DetectedObject2D"](
+                    name=name, truncated=False, polygon=t["geometry_msgs/msg/Polygon"](
+                        points=[point(x=float(x), y=float(x) / 2, z=0.0) for x in range(k)]))
                 for k, name in ((3, "cup"), (4, "bottle with a long label"), (0, ""))]),
         "diagnostic_msgs/msg/DiagnosticArray": t["diagnostic_msgs/msg/DiagnosticArray"](
             header=_header(store), status=[t["diagnostic_msgs/msg/DiagnosticStatus"](

@@ -54,7 +54,9 @@ def _detect(args: list[str], cwd: Path) -> subprocess.CompletedProcess[str]:
 
 
 def _float32(line: dict[str, Any]) -> dict[str, Any]:
+    """A JSON line as rosbag reads its message back: float32 points, and the flag JSON leaves out when false."""
     for obj in line["objects"]:
+        obj.setdefault("truncated", False)
         for point in obj.get("polygon", {}).get("points", []):
             for key, value in point.items():
                 point[key] = float(np.float32(value))

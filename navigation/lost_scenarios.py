@@ -1,0 +1,77 @@
+"""The lost-robot scenarios, shared by the tests and ``benchmarks/bench_nav_lost.py``.
+
+* :func:`lost_room`: a 7 m x 4 m room whose blocks make no two places look alike, not even after a half turn
+  of the room (a symmetric room has two equally good answers to "where am I?", and global localisation may
+  pick the wrong one), with :data:`LOST_ROOM_GOALS`.
+* :func:`box_between_pillars`: the issue's unmapped 0.5 m box, centred between the TurtleBot3 world's middle
+  pillar and its neighbour along +x, about 0.15 m from each.
+* :func:`spread_goals`: goal poses spread over the largest free region by farthest-point sampling.
+"""
+
+from __future__ import annotations
+
+import math
+
+import cv2
+import numpy as np
+
+from .costmap import ObstacleField
+from .geometry import Pose2D
+from .maps import FREE, OCCUPIED, OccupancyMap
+from .planner import Planner
+from .world import WorldObject
+
+RESOLUTION = 0.05
+LOST_ROOM_BLOCKS = ((2.0, 2.5, 2.6, 3.0), (4.2, 0.5, 4.6, 1.6), (0.6, 1.9, 1.6, 2.3), (6.3, 0.5, 6.9, 0.9))
+LOST_ROOM_GOALS = (Pose2D(1.0, 1.0, 0.0), Pose2D(6.0, 3.0, 1.5), Pose2D(3.5, 1.2, 3.0), Pose2D(1.0, 3.2, -1.5))
+#: Where the kidnap tests carry the robot: a corner no other place in the room resembles.
+LOST_ROOM_KIDNAP = Pose2D(1.2, 3.3, 0.0)
+PILLAR_MAX = 0.5  # metres: an obstacle blob smaller than this on both axes is a pillar
+BOX_SIZE = 0.5
+
+
+def lost_room(blocks: tuple[tuple[float, float, float, float], ...] = LOST_ROOM_BLOCKS, width: float = 7.0,
+              height: float = 4.0) -> OccupancyMap:
+    """A walled room of ``width`` x ``height`` metres with rectangular ``blocks`` (x0, y0, x1, y1)."""
+    data = np.full((round(height / RESOLUTION), round(width / RESOLUTION)), FREE, np.int8)
+    data[:2, :] = data[-2:, :] = data[:, :2] = data[:, -2:] = OCCUPIED
+    for x0, y0, x1, y1 in blocks:
+        data[round(y0 / RESOLUTION):round(y1 / RESOLUTION), round(x0 / RESOLUTION):round(x1 / RESOLUTION)] = OCCUPIED
+    return OccupancyMap(data, RESOLUTION, Pose2D(0.0, 0.0, 0.0))
+
+
+def pillars(occ_map: OccupancyMap) -> list[tuple[float, float]]:
+    """Centres of the map's small obstacle blobs (the TurtleBot3 world's pillars)."""
+    field = ObstacleField(occ_map)
+    _, _, stats, centres = cv2.connectedComponentsWithStats(field.obstacle.astype(np.uint8), connectivity=8)
+    return [occ_map.grid_to_world(cx - 0.5, cy - 0.5) for (cx, cy), st in zip(centres[1:], stats[1:], strict=True)
+            if max(st[2], st[3]) * occ_map.resolution < PILLAR_MAX]
+
+
+def box_between_pillars(occ_map: OccupancyMap) -> WorldObject:
+    """A 0.5 m box centred between the pillar nearest the origin and its neighbour along +x."""
+    small = pillars(occ_map)
+    if len(small) < 2:
+        raise ValueError("the map has fewer than two pillars")
+    middle = min(small, key=lambda p: math.hypot(*p))
+    right = min((p for p in small if p[0] > middle[0] + 0.5), key=lambda p: abs(p[1] - middle[1]) + p[0])
+    return WorldObject("box", "box", 0.5 * (middle[0] + right[0]), 0.5 * (middle[1] + right[1]),
+                       width=BOX_SIZE, depth=BOX_SIZE, height=BOX_SIZE)
+
+
+def spread_goals(planner: Planner, n: int, seed: int, min_clearance: float = 0.4) -> list[Pose2D]:
+    """``n`` poses over the largest free region, each ``min_clearance`` m from any obstacle, farthest first."""
+    labels = planner.labels
+    counts = np.bincount(labels.ravel())
+    counts[0] = 0
+    rows, cols = np.nonzero((labels == counts.argmax()) & (planner.clear >= min_clearance))
+    m = planner.field.map
+    pts = np.array([m.cell_to_world(i - 1, j - 1) for i, j in zip(cols, rows, strict=True)])
+    rng = np.random.default_rng(seed)
+    chosen = [int(rng.integers(len(pts)))]
+    dist = np.hypot(*(pts - pts[chosen[0]]).T)
+    for _ in range(n - 1):
+        k = int(dist.argmax())
+        chosen.append(k)
+        dist = np.minimum(dist, np.hypot(*(pts - pts[k]).T))
+    return [Pose2D(float(pts[k][0]), float(pts[k][1]), float(rng.uniform(-np.pi, np.pi))) for k in chosen]
