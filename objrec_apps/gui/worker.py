@@ -12,9 +12,11 @@ while paused or after a file or image source has ended.
 
 from __future__ import annotations
 
+import atexit
 import logging
 import threading
 import time
+import weakref
 from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -66,6 +68,12 @@ class _Watcher:
         if not changes or any(c.name not in UNSEEN_CHANGES for c in changes):
             self.worker.reprocess()
 
+
+
+def _stop_at_exit(worker: weakref.ref[ProcessingWorker]) -> None:
+    alive = worker()
+    if alive is not None and alive.running:
+        alive.stop(2.0)
 
 class ProcessingWorker(QObject):
     """Runs frames from a source through a DefinitionDirector in a thread of its own.
@@ -154,6 +162,9 @@ class ProcessingWorker(QObject):
             return
         self._thread = threading.Thread(target=self._run, name="objrec-define-worker", daemon=True)
         self._thread.start()
+        # An application that ends with its window still open (never closed, so never stopped) must not leave
+        # this thread running into the interpreter's shutdown, where it dies with a traceback half printed.
+        atexit.register(_stop_at_exit, weakref.ref(self))
 
     def stop(self, timeout: float = 5.0) -> None:
         """Stop the thread and close the source; safe to call twice."""
@@ -408,6 +419,16 @@ class ProcessingWorker(QObject):
 
 
     def _run(self) -> None:
+        try:
+            self._serve()
+        except RuntimeError as exc:
+            # The window was destroyed without closing (the application ended while it was open), and with it
+            # the Qt objects this thread reports to: there is no one left to tell, so the thread just ends.
+            if "already deleted" not in str(exc):
+                raise
+            log.debug("the worker ends with its window: %s", exc)
+
+    def _serve(self) -> None:
         while True:
             with self._cond:
                 while not self._stopping and not self._has_work():
