@@ -3,10 +3,14 @@
 * ``box``: the issue's unmapped 0.5 m box 0.15 m from two TurtleBot3-world pillars, ``--goals`` goals spread
   over the map, amcl with 5 % odometry noise. Target: at least 38 of 40 goals, no collision, no slide.
 * ``kidnap``: the lost-robot room, two laps of four goals, the robot carried off at t = 20 s. Target: lost
-  within 10 s, relocalised within 0.3 m, both laps completed.
+  within 10 s, relocalised within 0.3 m, both laps completed. ``--destinations`` adds kidnaps to four more
+  places of the room.
+* ``symmetric``: the same kidnap in a room that a half turn maps onto itself. Target: lost within 10 s, then
+  the patrol gives up saying the map looks the same from two places, having trusted no pose.
 
-Run: ``.venv/bin/python benchmarks/bench_nav_lost.py --seeds 8`` (the box needs the TurtleBot3 world in
-``../shared/data/maps``; it is skipped with a note when absent). Reported CPU time is this process's.
+Run: ``.venv/bin/python benchmarks/bench_nav_lost.py --seeds 20`` (the box needs the TurtleBot3 world in
+``../shared/data/maps``; it is skipped with a note when absent, and ``--box-seeds`` sets its seeds). Reported
+CPU time is this process's.
 """
 
 from __future__ import annotations
@@ -21,9 +25,14 @@ from pathlib import Path
 from machine import cpu_model  # benchmarks/machine.py: scripts run with benchmarks/ on sys.path
 
 from navigation.costmap import ObstacleField
+from navigation.geometry import Pose2D
 from navigation.lost_scenarios import (
+    LOST_ROOM_BLOCKS,
     LOST_ROOM_GOALS,
     LOST_ROOM_KIDNAP,
+    SYMMETRIC_ROOM_BLOCKS,
+    SYMMETRIC_ROOM_GOALS,
+    SYMMETRIC_ROOM_KIDNAP,
     box_between_pillars,
     lost_room,
     spread_goals,
@@ -54,11 +63,15 @@ def box_run(seed: int, n_goals: int) -> str:
             f"{s.localization_error_max:.3f} m, lost {s.localization_lost}")
 
 
-def kidnap_run(seed: int) -> str:
-    sim = Simulation(lost_room(), LOST_ROOM_GOALS[0], SimConfig(localization="amcl", seed=seed, **NOISY))
-    schedule_kidnap(sim, 20.0, LOST_ROOM_KIDNAP)
-    s = run_patrol(PatrolMachine(sim, list(LOST_ROOM_GOALS), None, max_laps=2), handle_sigint=False,
-                   max_steps=20_000)
+#: More places the kidnap carries the robot to with --destinations: open floor, beside blocks, near a wall.
+DESTINATIONS = (Pose2D(5.5, 2.0, 1.0), Pose2D(3.0, 1.0, 3.0), Pose2D(2.5, 2.0, 0.5), Pose2D(3.5, 3.5, -1.0))
+
+
+def kidnap_run(seed: int, to: Pose2D = LOST_ROOM_KIDNAP, symmetric: bool = False) -> str:
+    blocks, goals = (SYMMETRIC_ROOM_BLOCKS, SYMMETRIC_ROOM_GOALS) if symmetric else (LOST_ROOM_BLOCKS, LOST_ROOM_GOALS)
+    sim = Simulation(lost_room(blocks), goals[0], SimConfig(localization="amcl", seed=seed, **NOISY))
+    schedule_kidnap(sim, 20.0, to)
+    s = run_patrol(PatrolMachine(sim, list(goals), None, max_laps=2), handle_sigint=False, max_steps=20_000)
     lost = sim.events.of_type("localization_lost")
     found = sim.events.of_type("localization_regained")
     noticed = f"{lost[0]['t'] - 20.0:.1f} s" if lost else "never"
@@ -67,24 +80,33 @@ def kidnap_run(seed: int) -> str:
         believed, true = found[0]["believed"], found[0]["true"]
         off = f"{math.hypot(believed['x'] - true['x'], believed['y'] - true['y']):.2f} m"
     stages = "/".join(e["stage"] for e in sim.events.of_type("relocalize"))
-    return (f"kidnap  seed {seed}: lost after {noticed}, regained at t={found[0]['t'] if found else '-'} s "
-            f"({off} off; stages {stages}), {s.goals_reached}/8 goals ({s.goals_aborted} aborted), "
-            f"{s.collisions} collisions, "
-            f"{s.preempt_reason or 'completed'}")
+    name = "symmetric" if symmetric else "kidnap"
+    regained = f"t={found[0]['t']} s" if found else "-"
+    rejected = len(sim.events.of_type("pose_rejected"))
+    return (f"{name} seed {seed} to ({to.x:g}, {to.y:g}): lost after {noticed}, regained at {regained} ({off} off; "
+            f"stages {stages}; {rejected} poses rejected), {s.goals_reached}/8 goals ({s.goals_aborted} aborted), "
+            f"{s.collisions} collisions, {s.preempt_reason or 'completed'}")
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--seeds", type=int, default=8)
+    parser.add_argument("--seeds", type=int, default=20, help="kidnap seeds 0..N-1 (default 20)")
+    parser.add_argument("--box-seeds", type=int, default=4, help="box-beside-pillars seeds (default 4)")
+    parser.add_argument("--symmetric-seeds", type=int, default=4, help="symmetric-room seeds (default 4)")
+    parser.add_argument("--destinations", action="store_true", help="also kidnap to four more places")
     parser.add_argument("--goals", type=int, default=40)
     args = parser.parse_args()
     logging.basicConfig(level=logging.WARNING)
     print(f"machine: {cpu_model()}, load {os.getloadavg()[0]:.2f}")
     cpu0 = time.process_time()
     for seed in range(args.seeds):
-        print(kidnap_run(seed))
+        print(kidnap_run(seed), flush=True)
+        for to in DESTINATIONS if args.destinations else ():
+            print(kidnap_run(seed, to), flush=True)
+    for seed in range(args.symmetric_seeds):
+        print(kidnap_run(seed, SYMMETRIC_ROOM_KIDNAP, symmetric=True), flush=True)
     if TB3.is_file():
-        for seed in range(args.seeds):
+        for seed in range(args.box_seeds):
             print(box_run(seed, args.goals))
     else:
         print(f"box: skipped, {TB3} not found")

@@ -1,14 +1,17 @@
 """People in corridors: collisions per 20 goals and how every goal ended, over seeds (issue 25).
 
     .venv/bin/python benchmarks/bench_nav_people.py [--seeds 0-9] [--goals 20] [--walkers 2]
-        [--avoid stop,sidestep] [--localization exact,amcl] [--willow] [--shared-data DIR]
+        [--avoid stop,sidestep] [--localization exact,amcl] [--recoveries default,patient] [--willow]
+        [--shared-data DIR]
 
 Each run: a 12 m x 2 m corridor with a door recess every 2.5 m (or, with ``--willow``, a straight stretch of
 corridor on the Willow Garage map), walkers going back and forth along it at 0.3-0.6 m/s from seeded random
 places, and the robot sent
 from one end to the other ``--goals`` times (amcl with 5 % odometry noise). Target: at most 1 collision per
 20 goals, and every goal reached or aborted with a reason (a goal without a result is a failure).
-``--avoid none`` gives the scripted walkers of old, blind to the robot, for comparison.
+``--avoid none`` gives the scripted walkers of old, blind to the robot, for comparison. ``--recoveries``
+compares move_base's recovery orders: ``default`` (clear the costmap, rotate, back up) and ``patient`` (a
+wait of up to ``MoveBaseParams.patience`` seconds for what stands in the way to move, after clearing).
 Simulated time only; the CPU seconds are this process's.
 """
 
@@ -16,6 +19,7 @@ from __future__ import annotations
 
 import argparse
 import collections
+import itertools
 import math
 import os
 import time
@@ -27,7 +31,7 @@ from machine import cpu_model  # benchmarks/machine.py: scripts run with benchma
 from navigation.costmap import ObstacleField
 from navigation.geometry import Pose2D
 from navigation.maps import OccupancyMap, load_map
-from navigation.move_base import GoalStatus
+from navigation.move_base import PATIENT_RECOVERY_BEHAVIOURS, RECOVERY_BEHAVIOURS, GoalStatus, MoveBaseParams
 from navigation.people_scenarios import Corridor, corridor_map, drive_goals, find_corridor, walker
 from navigation.simulation import SimConfig, Simulation
 from navigation.world import World
@@ -35,6 +39,7 @@ from navigation.world import World
 ROOT = Path(__file__).resolve().parents[1]
 WILLOW = "maps/willow_2010/willow-2010-02-18-0.10.yaml"
 TARGET_PER_20 = 1.0
+RECOVERIES = {"default": RECOVERY_BEHAVIOURS, "patient": PATIENT_RECOVERY_BEHAVIOURS}
 
 
 def seeds_of(text: str) -> list[int]:
@@ -45,7 +50,7 @@ def seeds_of(text: str) -> list[int]:
 
 
 def run(occ_map: OccupancyMap, corridor: Corridor, seed: int, goals: int, walkers: int, avoid: str,
-        localization: str) -> dict:
+        localization: str, recoveries: str = "default") -> dict:
     """One seeded run: walkers placed along the corridor, the robot driven end to end ``goals`` times."""
     rng = np.random.default_rng(seed)
     half, side = corridor.half_length, max(0.0, corridor.half_width - 0.45)
@@ -55,7 +60,8 @@ def run(occ_map: OccupancyMap, corridor: Corridor, seed: int, goals: int, walker
     ends = [Pose2D(*corridor.point(half - 0.3), corridor.heading),
             Pose2D(*corridor.point(-half + 0.3), corridor.heading + math.pi)]
     noise = 0.05 if localization == "amcl" else 0.0
-    config = SimConfig(seed=seed, localization=localization, odom_linear_noise=noise, odom_angular_noise=noise)
+    config = SimConfig(seed=seed, localization=localization, odom_linear_noise=noise, odom_angular_noise=noise,
+                       move_base=MoveBaseParams(recovery_behaviours=RECOVERIES[recoveries]))
     sim = Simulation(occ_map, ends[1], config, world=World(obstacles=people))
     results = drive_goals(sim, [ends[k % 2] for k in range(goals)])
     return {"collisions": sim.collisions, "results": results, "sim_time": sim.clock.now,
@@ -69,6 +75,8 @@ def main() -> None:
     parser.add_argument("--walkers", type=int, default=2, help="walkers in the corridor (default 2)")
     parser.add_argument("--avoid", default="stop,sidestep", help="walker models to compare (stop, sidestep, none)")
     parser.add_argument("--localization", default="exact,amcl", help="exact, amcl or both (default both)")
+    parser.add_argument("--recoveries", default="default",
+                        help=f"recovery orders to compare, of {', '.join(RECOVERIES)} (default: default)")
     parser.add_argument("--willow", action="store_true", help="a corridor of the Willow Garage map (shared data)")
     parser.add_argument("--shared-data", type=Path,
                         default=Path(os.environ.get("OBJREC_SHARED_DATA", ROOT.parent / "shared" / "data")))
@@ -89,31 +97,31 @@ def main() -> None:
     seeds = seeds_of(args.seeds)
     print(f"{scene}; {args.walkers} walkers; {args.goals} goals x {len(seeds)} seeds ({args.seeds}); "
           f"CPU: {cpu_model()}; load: {os.getloadavg()[0]:.2f}")
-    print(f"{'walkers':9} {'pose':6} {'goals':>6} {'reached':>8} {'aborted':>8} {'collisions':>10} "
+    print(f"{'walkers':9} {'pose':6} {'recovery':8} {'goals':>6} {'reached':>8} {'aborted':>8} {'collisions':>10} "
           f"{'per 20':>7} {'sim s':>7} {'CPU s':>6}  abort reasons")
-    for avoid in args.avoid.split(","):
-        for localization in args.localization.split(","):
-            cpu = time.process_time()
-            total, reached, aborted, collisions, sim_time = 0, 0, 0, 0, 0.0
-            reasons: collections.Counter[str] = collections.Counter()
-            unanswered = 0
-            for seed in seeds:
-                out = run(occ_map, corridor, seed, args.goals, args.walkers, avoid, localization)
-                collisions += out["collisions"]
-                sim_time += out["sim_time"]
-                for status, text in out["results"]:
-                    total += 1
-                    reached += status == GoalStatus.SUCCEEDED
-                    if status == GoalStatus.ABORTED:
-                        aborted += 1
-                        reasons[text.split(" (after")[0]] += 1
-                    elif status != GoalStatus.SUCCEEDED or not text:
-                        unanswered += 1
-            per20 = 20.0 * collisions / max(total, 1)
-            verdict = "ok" if per20 <= TARGET_PER_20 and not unanswered else "MISSED"
-            print(f"{avoid:9} {localization:6} {total:6d} {reached:8d} {aborted:8d} {collisions:10d} {per20:7.2f} "
-                  f"{sim_time:7.0f} {time.process_time() - cpu:6.1f}  {dict(reasons) or '-'} [{verdict}]",
-                  flush=True)
+    for avoid, localization, recoveries in itertools.product(args.avoid.split(","), args.localization.split(","),
+                                                             args.recoveries.split(",")):
+        cpu = time.process_time()
+        total, reached, aborted, collisions, sim_time = 0, 0, 0, 0, 0.0
+        reasons: collections.Counter[str] = collections.Counter()
+        unanswered = 0
+        for seed in seeds:
+            out = run(occ_map, corridor, seed, args.goals, args.walkers, avoid, localization, recoveries)
+            collisions += out["collisions"]
+            sim_time += out["sim_time"]
+            for status, text in out["results"]:
+                total += 1
+                reached += status == GoalStatus.SUCCEEDED
+                if status == GoalStatus.ABORTED:
+                    aborted += 1
+                    reasons[text.split(" (after")[0]] += 1
+                elif status != GoalStatus.SUCCEEDED or not text:
+                    unanswered += 1
+        per20 = 20.0 * collisions / max(total, 1)
+        verdict = "ok" if per20 <= TARGET_PER_20 and not unanswered else "MISSED"
+        print(f"{avoid:9} {localization:6} {recoveries:8} {total:6d} {reached:8d} {aborted:8d} {collisions:10d} "
+              f"{per20:7.2f} {sim_time:7.0f} {time.process_time() - cpu:6.1f}  {dict(reasons) or '-'} [{verdict}]",
+              flush=True)
 
 
 if __name__ == "__main__":

@@ -31,9 +31,18 @@ from .diagram import write_diagram
 from .docking import DockingStation
 from .foxglove_log import PatrolView, open_patrol_view
 from .geometry import Pose2D
+from .laptop_monitor import laptop_battery_monitor
 from .lost_options import add_lost_robot_options, apply_lost_robot_options
-from .maps import MapError, load_map, load_map_metadata
-from .nav_params import add_nav_params_options, apply_to_simulation, in_keepout, nav_params_from_args
+from .maps import MapError, OccupancyMap, load_map, load_map_metadata
+from .nav_params import (
+    NavParams,
+    add_nav_params_options,
+    apply_to_simulation,
+    configure_simulation,
+    in_keepout,
+    nav_params_from_args,
+    nav_params_inputs,
+)
 from .patrol import PatrolMachine
 from .poses import PoseFileError, load_poses
 from .render import ANIMATED, STILL, LocalizationMarks, RunPicture, save_render
@@ -89,7 +98,8 @@ def build_parser() -> argparse.ArgumentParser:
                      help="laptop low threshold (default 20)")
     bat.add_argument("--laptop-runtime", type=HOURS, default=2.5, metavar="HOURS",
                      help="laptop time on battery (default 2.5)")
-    bat.add_argument("--laptop-plugged", action="store_true", help="the laptop is on mains power")
+    bat.add_argument("--laptop-plugged", action="store_true",
+                     help="the laptop is on mains power: no laptop battery monitor (LAPTOP_BATTERY_MONITOR)")
     dock = p.add_argument_group("docking")
     dock.add_argument("--no-station", action="store_true", help="ignore the station pose in POSES_FILE")
     dock.add_argument("--dock-distance", type=DOCK_DISTANCE, default=1.0, metavar="METRES",
@@ -165,20 +175,20 @@ def _format_localization(summary: Summary) -> str:
             f"{summary.localization_error_max:.3f} m at most{updates}{lost}")
 
 
-def _config(args: argparse.Namespace) -> SimConfig:
-    nav = nav_params_from_args(args)  # the parameters file under the command line's options
+def _config(args: argparse.Namespace, nav: NavParams, occ_map: OccupancyMap) -> SimConfig:
+    """The simulation's settings: its options, the batteries, and the navigation parameters (``nav``: the file under
+    the command line's options), the keepout mask read once for the planner the simulation builds."""
     base = SimConfig()
-    margin = base.inflation_margin if nav.inflation_margin is None else nav.inflation_margin
-    base = replace(base, inflation_margin=margin, follower=nav.follower_params(base.follower))
     robot_low = args.robot_battery_low
     robot_params = RobotBatteryParams(
         runtime_h=args.robot_runtime, charge_time_h=args.robot_charge_time,
         low_voltage=kobuki_voltage(robot_low) if robot_low is not None else base.robot_battery.low_voltage)
-    return replace(
+    config = replace(
         simulation_config(args, base), robot_battery=robot_params, robot_battery_percent=args.robot_battery,
         laptop_battery=LaptopBatteryParams(runtime_h=args.laptop_runtime, low_percent=args.laptop_battery_low),
         laptop_battery_percent=args.laptop_battery, laptop_plugged=args.laptop_plugged,
         record_every=1 if args.render else 0)
+    return configure_simulation(config, nav, occ_map)
 
 
 def _error(message: object) -> None:
@@ -221,9 +231,8 @@ def _check_output_paths(args: argparse.Namespace) -> None:
     the pose file, the map or its image, or a file a ``--robot`` option names; none may be read-only or a FIFO."""
     files = RunFiles().reads(args.poses, "the pose file").reads(args.map, "the map file")
     files.reads(load_map_metadata(args.map).image, "the map image")
-    for option in ("nav_params", "keepout_mask", "speed_mask"):  # the navigation parameters and their masks
-        if getattr(args, option):
-            files.reads(getattr(args, option), f"the file of --{option.replace('_', '-')}")
+    for path, what in nav_params_inputs(args):  # the navigation parameters and their masks
+        files.reads(path, what)
     for value in parse_robot_spec(args.robot)[1].values():
         if value and os.path.lexists(value):
             files.reads(value, "a file of --robot")
@@ -258,14 +267,15 @@ def _run(parser: argparse.ArgumentParser, args: argparse.Namespace, early: StopS
     else:
         start = station_pose or pose_file.goals[0]
     station = DockingStation.in_front_of(station_pose, args.dock_distance) if station_pose else None
-    config = _config(args)
+    nav = nav_params_from_args(args)
+    config = _config(args, nav, occ_map)
     zones = None
     setup = RobotSetup(occ_map, start, tuple(pose_file.goals), station_pose, station, config,
                        stop_requested=lambda: early is not None and early.count > 0)
     try:
         sim = open_robot(args.robot, setup)
         if isinstance(sim, Simulation):
-            zones = apply_to_simulation(sim, nav_params_from_args(args))  # keepout, cost shape, speed zones
+            zones = apply_to_simulation(sim, nav)  # the speed zones; the planner came with the config
         elif args.nav_params or args.keepout_mask or args.speed_mask or args.cost_scaling_factor is not None:
             log.warning("the navigation parameters and masks act on the simulator only; robot %s plans and drives "
                         "with its own settings", args.robot)
@@ -291,8 +301,10 @@ def _run(parser: argparse.ArgumentParser, args: argparse.Namespace, early: StopS
         log.warning("--resume-after-charging without --laps or --time-limit runs until Ctrl-C or %s steps",
                     f"{MAX_STEPS:,}")
 
+    # The laptop riding on the robot (the thesis's set-up) is watched by a monitor of this command, not of the machine.
+    monitors = () if args.laptop_plugged else (laptop_battery_monitor(),)
     machine = PatrolMachine(sim, pose_file.goals, station_pose, max_laps=args.laps,
-                            resume_after_charging=args.resume_after_charging)
+                            resume_after_charging=args.resume_after_charging, monitors=monitors)
     recorder: PatrolRecorder | None = None
     if args.rerun:
         try:
@@ -313,10 +325,9 @@ def _run(parser: argparse.ArgumentParser, args: argparse.Namespace, early: StopS
         print(f"{PROG}: Foxglove live view on {view.server.url}", file=sys.stderr, flush=True)
     try:
         _make_parent_folders(args.diagram, args.events, args.render)
-        if args.diagram:
-            n = len(pose_file.goals)
-            write_diagram(args.diagram, n)
-            machine.state_listeners.append(lambda m: write_diagram(args.diagram, n, m.active_states()))
+        if args.diagram:  # the machine itself, so that the monitors it was given are drawn
+            write_diagram(args.diagram, machine)
+            machine.state_listeners.append(lambda m: write_diagram(args.diagram, m, m.active_states()))
         if args.events:
             sim.events.open(args.events)
         sim.events.keep = False  # the command streams events; holding hours of them in memory helps nobody
@@ -339,7 +350,7 @@ def _run(parser: argparse.ArgumentParser, args: argparse.Namespace, early: StopS
             view.close()
         sim.close()
     if args.diagram:
-        write_diagram(args.diagram, len(pose_file.goals), machine.active_states())
+        write_diagram(args.diagram, machine, machine.active_states())
     print(format_summary(summary))
     if args.render:
         picture = RunPicture(occ_map, sim.trajectory, pose_file.goals, station_pose, station,

@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import logging
 import math
+from collections import deque
 from collections.abc import Callable
 from dataclasses import dataclass, replace
 from typing import Any
@@ -155,6 +156,21 @@ class Confidence:
         if self.beams and self.score < params.lost_score:
             return f"only {self.score:.0%} of beams on the map (< {params.lost_score:.0%})"
         return ""
+
+
+@dataclass(frozen=True)
+class ScanView:
+    """A scan the filter weighed, with the simulated time ``t`` and the odometry pose it was taken at: a robot
+    turning on the spot collects a ring of these, which together see far more of the room than one 58 degree
+    scan (see :mod:`navigation.amcl_global`)."""
+
+    t: float
+    odom: Pose2D
+    scan: LaserScan
+
+
+#: How many of the filter's latest scans :attr:`Amcl.views` keeps: two full turns of ``update_min_a``.
+VIEWS_KEPT = 24
 
 
 def compose(a: Pose2D, b: Pose2D) -> Pose2D:
@@ -423,6 +439,12 @@ class ParticleFilter:
     def seed_free_space(self, count: int, clearance: float = 0.15) -> None:
         """Particles spread evenly over the map's free cells at least ``clearance`` from obstacles, with any
         heading: the global re-seed of augmented MCL, when no guess of the pose is left."""
+        self.x, self.y, self.yaw = self.free_space_poses(count, clearance)
+        self.w = np.full(count, 1.0 / count)
+
+    def free_space_poses(self, count: int, clearance: float = 0.15) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``count`` poses (x, y, yaw arrays) drawn evenly over the free cells at least ``clearance`` from
+        obstacles, with any heading."""
         rows, cols = np.nonzero(self.field.dist >= clearance)
         if len(rows) == 0:
             raise ValueError("the map has no free cell to seed particles in")
@@ -431,10 +453,8 @@ class ParticleFilter:
         gy = rows[pick] - 1 + self.rng.random(count)
         m = self.field.map
         u, v = gx * self._res, gy * self._res
-        self.x = m.origin.x + u * self._c0 - v * self._s0
-        self.y = m.origin.y + u * self._s0 + v * self._c0
-        self.yaw = self.rng.uniform(-math.pi, math.pi, count)
-        self.w = np.full(count, 1.0 / count)
+        return (m.origin.x + u * self._c0 - v * self._s0, m.origin.y + u * self._s0 + v * self._c0,
+                self.rng.uniform(-math.pi, math.pi, count))
 
     @property
     def effective_count(self) -> float:
@@ -625,10 +645,25 @@ class Amcl(Localizer):
         self._strict_next = False
         self.regained_count = 0
         self.last_good = self.estimate  # the last estimate the filter trusted: where a local re-seed starts
+        self.views: deque[ScanView] = deque(maxlen=VIEWS_KEPT)  # the latest scans weighed, for global search
+        self.lost_at = 0.0  # simulated time of the latest localization_lost
+        # A second opinion asked before a lost filter trusts a pose again: why not, or "" (see Relocalize).
+        self.confirm: Callable[[Pose2D], str] | None = None
+        self.rejected = 0
 
     @property
     def particles(self) -> int:
         return self.filter.count
+
+    @property
+    def odom(self) -> Pose2D:
+        """The latest odometry pose the filter was stepped with."""
+        return self._odom
+
+    @property
+    def laser(self) -> LaserParams:
+        """The laser as the filter reads it: at most ``max_beams`` beams."""
+        return self._laser
 
     def set_pose(self, pose: Pose2D, sigma_xy: float | None = None, sigma_yaw: float | None = None) -> None:
         """Start the cloud afresh around ``pose`` (amcl's ``initialpose``, rviz's "2D Pose Estimate");
@@ -642,6 +677,8 @@ class Amcl(Localizer):
         self._restart()
 
     def _restart(self) -> None:
+        self._good = 0  # a re-seeded cloud proves itself afresh
+        self._found_scores = []
         self.estimate = self.filter.estimate()
         self._map_odom = compose(self.estimate, inverse(self._odom))
         self._odom_at_update = self._odom
@@ -666,6 +703,7 @@ class Amcl(Localizer):
             pf.predict(self._odom_at_update, odom)
         self._first = False
         scan = self._scan(self._laser)
+        self.views.append(ScanView(self._now(), odom, scan))
         expected = cast_scan(pf.field, believed, replace(self._laser, noise=0.0))
         self.beams_used = pf.weigh(scan, expected)
         estimate = pf.estimate()  # from the weighted cloud: resampling would only add sampling noise
@@ -703,6 +741,15 @@ class Amcl(Localizer):
             self._good = 0 if c.spread > p.lost_spread else self._good + 1
             found = sum(self._found_scores) / len(self._found_scores) if self._found_scores else 0.0
             if self._good >= p.found_after and found >= p.found_score:
+                why = self.confirm(self.estimate) if self.confirm is not None else ""
+                if why:
+                    self.rejected += 1
+                    self._good = 0  # look for another full turn
+                    self._found_scores = []
+                    log.info("pose not trusted again: %s", why)
+                    if self._events is not None:
+                        self._events.emit("pose_rejected", reason=why, **self.pose_fields())
+                    return
                 self.lost = False
                 self.regained_count += 1
                 self._scores = []
@@ -723,6 +770,7 @@ class Amcl(Localizer):
             self.last_good = self.estimate
             return
         self.lost = True
+        self.lost_at = self._now()
         self.lost_count += 1
         self._good = 0
         self._found_scores = []

@@ -3,6 +3,9 @@
 * :func:`lost_room`: a 7 m x 4 m room whose blocks make no two places look alike, not even after a half turn
   of the room (a symmetric room has two equally good answers to "where am I?", and global localisation may
   pick the wrong one), with :data:`LOST_ROOM_GOALS`.
+* :data:`SYMMETRIC_ROOM_BLOCKS`: the same room with blocks that a half turn about its centre maps onto each other,
+  so every place has a twin that looks the same (:func:`twin`): after a kidnap the map cannot tell the robot
+  where it is, and it must say so rather than drive on a guess.
 * :func:`box_between_pillars`: the issue's unmapped 0.5 m box, centred between the TurtleBot3 world's middle
   pillar and its neighbour along +x, about 0.15 m from each.
 * :func:`spread_goals`: goal poses spread over the largest free region by farthest-point sampling.
@@ -16,7 +19,7 @@ import cv2
 import numpy as np
 
 from .costmap import ObstacleField
-from .geometry import Pose2D
+from .geometry import Pose2D, wrap_angle
 from .maps import FREE, OCCUPIED, OccupancyMap
 from .planner import Planner
 from .world import WorldObject
@@ -26,6 +29,10 @@ LOST_ROOM_BLOCKS = ((2.0, 2.5, 2.6, 3.0), (4.2, 0.5, 4.6, 1.6), (0.6, 1.9, 1.6, 
 LOST_ROOM_GOALS = (Pose2D(1.0, 1.0, 0.0), Pose2D(6.0, 3.0, 1.5), Pose2D(3.5, 1.2, 3.0), Pose2D(1.0, 3.2, -1.5))
 #: Where the kidnap tests carry the robot: a corner no other place in the room resembles.
 LOST_ROOM_KIDNAP = Pose2D(1.2, 3.3, 0.0)
+#: Blocks placed in pairs by a half turn about the room's centre (3.5, 2.0), and one across the centre.
+SYMMETRIC_ROOM_BLOCKS = ((1.0, 0.5, 1.6, 1.2), (5.4, 2.8, 6.0, 3.5), (3.0, 1.8, 4.0, 2.2))
+SYMMETRIC_ROOM_GOALS = (Pose2D(1.0, 2.0, 0.0), Pose2D(3.5, 3.3, 0.0), Pose2D(6.0, 2.0, 3.0), Pose2D(3.5, 0.8, 3.0))
+SYMMETRIC_ROOM_KIDNAP = Pose2D(2.2, 3.2, 0.5)
 PILLAR_MAX = 0.5  # metres: an obstacle blob smaller than this on both axes is a pillar
 BOX_SIZE = 0.5
 
@@ -38,6 +45,11 @@ def lost_room(blocks: tuple[tuple[float, float, float, float], ...] = LOST_ROOM_
     for x0, y0, x1, y1 in blocks:
         data[round(y0 / RESOLUTION):round(y1 / RESOLUTION), round(x0 / RESOLUTION):round(x1 / RESOLUTION)] = OCCUPIED
     return OccupancyMap(data, RESOLUTION, Pose2D(0.0, 0.0, 0.0))
+
+
+def twin(pose: Pose2D, width: float = 7.0, height: float = 4.0) -> Pose2D:
+    """The place that looks like ``pose`` in a room symmetric under a half turn about its centre."""
+    return Pose2D(width - pose.x, height - pose.y, wrap_angle(pose.yaw + math.pi))
 
 
 def pillars(occ_map: OccupancyMap) -> list[tuple[float, float]]:

@@ -10,11 +10,14 @@ move_base's global planner does on a costmap with an obstacle layer.
 Like move_base it runs recovery behaviours when there is no path or the robot stops making progress:
 clear the costmap (forget what the laser marked), rotate in place (look all round), back up (away from
 what it is pressed against); each runs at most once per goal, in that order, and a behaviour that could
-change nothing (clearing an empty costmap, backing into an obstacle) is skipped. After the last one it
-gives up with ABORTED, so a goal that makes no progress ends after a bounded simulated time whatever
-the time step. Progress means the path still to drive getting shorter: a robot circling its goal moves
-but makes none. A goal inside an obstacle or off the map is aborted at once: no recovery can make it
-reachable. Results are delivered through the simulation clock, never from inside
+change nothing (clearing an empty costmap, backing into an obstacle) is skipped. A fourth, ``wait`` (Nav2's
+Wait behaviour), runs where ``recovery_behaviours`` lists it (:data:`PATIENT_RECOVERY_BEHAVIOURS`): it stands
+still up to ``patience`` seconds, scanning, and drives on as soon as a plan round what the laser marked
+exists again (a person who stopped in the way moves on).
+After the last behaviour it gives up with ABORTED, so a goal that makes no progress ends after a bounded
+simulated time whatever the time step. Progress means the path still to drive getting shorter: a robot
+circling its goal moves but makes none. A goal inside an obstacle or off the map is aborted at once: no
+recovery can make it reachable. Results are delivered through the simulation clock, never from inside
 :meth:`MoveBase.send_goal`, so a caller is never re-entered.
 """
 
@@ -42,6 +45,10 @@ from .planner import Plan, Planner
 log = logging.getLogger(__name__)
 
 RECOVERY_BEHAVIOURS = ("clear_costmap", "rotate", "back_up")
+#: Every behaviour ``recovery_behaviours`` may list: the default ones and ``wait``.
+KNOWN_RECOVERY_BEHAVIOURS = (*RECOVERY_BEHAVIOURS, "wait")
+#: The order with a wait for what stands in the way to move, before the robot turns and backs away.
+PATIENT_RECOVERY_BEHAVIOURS = ("clear_costmap", "wait", "rotate", "back_up")
 #: Plans kept for inspection: a patrol of hours makes hundreds of thousands, and each holds its path.
 KEPT_PLANS = 100
 
@@ -67,7 +74,9 @@ class MoveBaseParams:
 
     ``stuck_timeout`` seconds in which the path still to drive does not shrink by ``progress_distance``
     count as no progress. ``recovery_behaviours`` run in order, each at most once per goal (names from
-    :data:`RECOVERY_BEHAVIOURS`); the rotation turns ``recovery_turn`` radians at ``recovery_speed``; the
+    :data:`KNOWN_RECOVERY_BEHAVIOURS`); ``wait`` stands still for at most ``patience`` seconds, scanning as
+    often as when it watches a blocked way, and ends as soon as a plan exists; the rotation turns
+    ``recovery_turn`` radians at ``recovery_speed``; the
     back-up drives ``backup_distance`` metres backwards at ``backup_speed``, for at most
     ``backup_distance / backup_speed + backup_slack`` seconds. The way counts as blocked where the path
     passes closer than the robot's radius plus ``blocked_margin`` to an obstacle the laser marked; the
@@ -105,12 +114,15 @@ class MoveBaseParams:
     stop_gap: float = 0.05
     slow_zone: float = 0.3
     slow_speed: float = 0.2
+    patience: float = 15.0
     local_costmap: LocalCostmapParams = field(default_factory=LocalCostmapParams)
 
     def __post_init__(self) -> None:
-        unknown = [b for b in self.recovery_behaviours if b not in RECOVERY_BEHAVIOURS]
+        unknown = [b for b in self.recovery_behaviours if b not in KNOWN_RECOVERY_BEHAVIOURS]
         if unknown:
-            raise ValueError(f"unknown recovery behaviour(s) {unknown}; known: {list(RECOVERY_BEHAVIOURS)}")
+            raise ValueError(f"unknown recovery behaviour(s) {unknown}; known: {list(KNOWN_RECOVERY_BEHAVIOURS)}")
+        if not self.patience >= 0:
+            raise ValueError(f"patience must be zero or positive seconds, got {self.patience}")
 
     def no_progress_bound(self, dt: float) -> float:
         """Longest simulated time a goal can last after its last progress before it is aborted.
@@ -124,6 +136,8 @@ class MoveBaseParams:
             t += self.recovery_turn / self.recovery_speed + dt
         if "back_up" in behaviours:
             t += self.backup_distance / self.backup_speed + self.backup_slack + dt
+        if "wait" in behaviours:
+            t += self.patience + dt
         return t
 
 
@@ -144,6 +158,8 @@ class _Behaviour:
     left: float  # radians still to turn, or metres still to back up
     start: Pose2D
     deadline: float
+    seen: int = -1  # wait: the costmap version last planned on
+    heading: float | None = None  # wait: where to face, the way the map's path leaves (None: facing it)
 
 
 class MoveBase:
@@ -270,8 +286,9 @@ class MoveBase:
             self._avoid_planner = (version, planner)
         return self._avoid_planner[1]
 
-    def _plan(self, restart_clock: bool = True) -> None:
-        """Plan from where the robot is; ``restart_clock=False`` keeps the no-progress clock running."""
+    def _make_plan(self) -> tuple[Plan, int]:
+        """A plan from where the robot is, round what the laser marked when the map's path runs into it; and how
+        many marked cells it had to avoid."""
         goal = self.goal
         assert goal is not None
         start = self._pose()
@@ -288,6 +305,13 @@ class MoveBase:
                 plan.reason = "the robot is hemmed in by obstacles the map does not show"
             elif not plan.ok and plan.reason.startswith("no path"):
                 plan.reason = "no path round the obstacles the map does not show"
+        return plan, avoiding
+
+    def _plan(self, restart_clock: bool = True) -> None:
+        """Plan from where the robot is; ``restart_clock=False`` keeps the no-progress clock running."""
+        goal = self.goal
+        assert goal is not None
+        plan, avoiding = self._make_plan()
         self.last_plan = plan
         self.plans.append(plan)
         self.events.emit("plan", goal_id=goal.id, ok=plan.ok, length=round(plan.length, 3),
@@ -336,6 +360,16 @@ class MoveBase:
                 self.events.emit("recovery", goal_id=goal.id, attempt=self._recoveries, reason=why,
                                  behaviour=name)
                 return
+            if name == "wait":
+                if self.costmap.empty or self.params.patience <= 0:
+                    log.debug("goal %d: nothing marked that could move away, wait skipped", goal.id)
+                    continue
+                self._recoveries += 1
+                self._behaviour = _Behaviour(name, 0.0, pose, self.clock.now + self.params.patience,
+                                             self.costmap.version, self._way_heading(pose))
+                self.events.emit("recovery", goal_id=goal.id, attempt=self._recoveries, reason=why,
+                                 behaviour=name, patience=self.params.patience)
+                return
             if name == "back_up":
                 room = self._room_behind(pose)
                 if room < 0.5 * self.planner.field.resolution:
@@ -349,6 +383,21 @@ class MoveBase:
                                  behaviour=name, distance=round(room, 3))
                 return
         self._finish(GoalStatus.ABORTED, f"{why} (after {self._recoveries} recovery attempts)")
+
+    def _way_heading(self, pose: Pose2D) -> float | None:
+        """The heading of the map's path one metre out from ``pose`` (towards the goal without one): where a
+        waiting robot looks, so that its laser sees, and clears, what blocks the way rather than a wall."""
+        goal = self.goal
+        assert goal is not None
+        plan = self.planner.plan(pose, goal.pose, self.follower_params.xy_tolerance)
+        tx, ty = goal.pose.x, goal.pose.y
+        if plan.ok and len(plan.path) > 1:
+            d = np.hypot(plan.path[:, 0] - pose.x, plan.path[:, 1] - pose.y)
+            far = np.nonzero(d >= 1.0)[0]
+            tx, ty = plan.path[far[0] if len(far) else -1]
+        if math.hypot(tx - pose.x, ty - pose.y) < 1e-6:
+            return None
+        return math.atan2(ty - pose.y, tx - pose.x)
 
     def _room_behind(self, pose: Pose2D) -> float:
         """How far (up to ``backup_distance``) the robot can back up without touching anything known.
@@ -383,7 +432,8 @@ class MoveBase:
         p = self.costmap.params
         last = self._scan_pose
         if not force and last is not None:
-            rate = p.fast_rate if self._waiting or self.clock.now < self._fast_until else 1.0
+            watching = self._waiting or (self._behaviour is not None and self._behaviour.name == "wait")
+            rate = p.fast_rate if watching or self.clock.now < self._fast_until else 1.0
             turned = heading_matters and abs(wrap_angle(pose.yaw - last.yaw)) * rate >= p.update_angle
             if (not turned and pose.distance_to(last) * rate < p.update_distance
                     and (self.clock.now - self._scan_time) * rate < p.update_period):
@@ -591,6 +641,27 @@ class MoveBase:
         b = self._behaviour
         assert b is not None
         p = self.params
+        if b.name == "wait":
+            # Face the way, then stand still; after each scan that changed the costmap, look for a way again
+            # (without a plan event). Turning on the spot touches nothing.
+            turn = 0.0
+            if b.heading is not None:
+                error = wrap_angle(b.heading - pose.yaw)
+                if abs(error) > 0.05:
+                    turn = math.copysign(min(p.recovery_speed, abs(error) / dt), error)
+                else:
+                    b.heading = None
+            if self.clock.now >= b.deadline - 1e-9:
+                self._behaviour = None
+                self._plan()  # the patience is spent: the plan's failure starts the next behaviour
+                return 0.0, 0.0
+            if self.costmap.version != b.seen:
+                b.seen = self.costmap.version
+                if self._make_plan()[0].ok:
+                    self._behaviour = None
+                    self._plan()
+                    return 0.0, 0.0
+            return 0.0, turn
         if b.name == "rotate":
             turn = min(p.recovery_speed * dt, b.left)
             b.left -= turn

@@ -45,6 +45,7 @@ from .follower import FollowerParams
 from .maps import OccupancyMap
 from .planner import Planner, PlannerParams
 from .robot import RobotParams
+from .simulation import SimConfig
 
 #: A parameters file is a few dozen lines; 64 KiB leaves room for comments, never for a bomb.
 NAV_PARAMS_LIMITS = YAMLLimits(max_bytes=64 * 1024, max_depth=8)
@@ -164,6 +165,13 @@ def add_nav_params_options(parser: argparse.ArgumentParser) -> argparse._Argumen
     return group
 
 
+def nav_params_inputs(args: argparse.Namespace) -> list[tuple[str, str]]:
+    """The files the navigation options name, each with how an error names it: a command's outputs must never
+    replace them (:class:`strictio.output_paths.RunFiles`)."""
+    return [(getattr(args, option), f"the file of --{option.replace('_', '-')}")
+            for option in ("nav_params", "keepout_mask", "speed_mask") if getattr(args, option)]
+
+
 def nav_params_from_args(args: argparse.Namespace) -> NavParams:
     """The parameters file (if any) with the command line's options laid over it."""
     params = read_nav_params(args.nav_params) if args.nav_params else NavParams()
@@ -179,20 +187,36 @@ def nav_params_from_args(args: argparse.Namespace) -> NavParams:
     return replace(params, **changes) if changes else params
 
 
+def configure_simulation(config: SimConfig, params: NavParams, occ_map: OccupancyMap) -> SimConfig:
+    """``config`` with what ``params`` set before the simulation is built: the inflation margin, the controller
+    settings and the planner's cost shape and keepout cells (the mask read here, once), so the simulation builds
+    its planner once. The speed zones act on a built simulation: :func:`apply_to_simulation`."""
+    margin = config.inflation_margin if params.inflation_margin is None else params.inflation_margin
+    config = replace(config, inflation_margin=margin, follower=params.follower_params(config.follower))
+    if params.changes_planner or config.planner is not None:
+        config = replace(config, planner=params.planner_params(config.planner_params(), params.keepout(occ_map)))
+    return config
+
+
 def apply_to_simulation(sim: Any, params: NavParams) -> np.ndarray | None:
-    """Give a built :class:`~navigation.simulation.Simulation` the planner (keepout, cost shape) and the speed zones
-    of ``params`` (its config already carries the inflation margin and the controller settings); returns the
-    zones' picture layer for :class:`~navigation.render.RunPicture` (None: no zones)."""
-    keepout = params.keepout(sim.map)
-    if params.changes_planner:  # a second planner set-up, only when the file or the options change it
-        planner = Planner(sim.planner.field, params.planner_params(sim.planner.params, keepout))
+    """Give a built :class:`~navigation.simulation.Simulation` the speed zones of ``params``, and the planner (keepout,
+    cost shape) when its config did not already carry it (:func:`configure_simulation` does, and then no second
+    planner is built); returns the zones' picture layer for :class:`~navigation.render.RunPicture` (None: no
+    zones)."""
+    wanted = params.planner_params(sim.planner.params)
+    keepout = sim.planner.params.keepout  # the map's cells (the planner's own copy is padded)
+    if params.keepout_mask is not None and keepout is None:
+        keepout = params.keepout(sim.map)
+    if wanted != sim.planner.params or keepout is not sim.planner.params.keepout:  # set after the simulation: rebuilt
+        planner = Planner(sim.planner.field, replace(wanted, keepout=keepout))
         sim.planner = planner
         sim.move_base.planner = planner
     follower = sim.config.follower
     zones = params.speed_zones(sim.map, follower)
     if zones is not None:
         sim.move_base.speed_limit = zones.cap
-    return zone_overlay(keepout, None if zones is None else zones.limits, follower.max_linear)
+    return zone_overlay(keepout if params.keepout_mask is not None else None,
+                        None if zones is None else zones.limits, follower.max_linear)
 
 
 def in_keepout(planner: Planner, pose: Any) -> bool:

@@ -4,14 +4,15 @@ States and transitions are data (:func:`patrol_states`, :func:`patrol_transition
 class only supplies what each state *does* when entered or left. Names and outcomes follow the ROS patrol's:
 
 * ``MONITORED_PATROL`` (parallel) runs ``PATROL`` (``POSE_0``, ``POSE_1``, ... in a loop),
-  ``ROBOT_BATTERY_MONITOR`` and ``LAPTOP_BATTERY_MONITOR``; the first to finish ends the other two,
+  ``ROBOT_BATTERY_MONITOR`` and the added monitors; the first to finish ends the others,
   because leaving any region leaves the whole parallel state.
 * ``robot_battery_low`` goes to ``DOCK_AT_STATION`` (``MOVE_TO_STATION`` then ``DOCK``) when a station
-  is known, else to ``SHUTDOWN``; ``laptop_battery_low`` and ``preempted`` go to ``SHUTDOWN``.
-* Monitors keep watching outside MONITORED_PATROL too (docking, charging, undocking, LOCALIZE): the laptop's
-  ``laptop_battery_low`` and an added monitor's outcomes lead to their states from there as well, so a laptop
-  that dies on the dock ends the run with that reason; an empty robot battery (not charging) ends the run from
-  any state as ``robot_battery_empty``. The run's reason (``end_reason``) names the battery.
+  is known, else to ``SHUTDOWN``; ``preempted`` goes to ``SHUTDOWN``.
+* Added monitors keep watching outside MONITORED_PATROL too (docking, charging, undocking, LOCALIZE): their
+  outcomes lead to their states from there as well, so the laptop's monitor (:mod:`navigation.laptop_monitor`,
+  which ``objrec-patrol`` adds) ends the run when the laptop dies on the dock; a monitor's outcome that leads to
+  SHUTDOWN gives the run its reason (``end_reason``). An empty robot battery (not charging) ends the run from
+  any state as ``robot_battery_empty``, named as such.
 * ``DOCK_AT_STATION`` succeeds into ``WAIT_UNTIL_CHARGED``, any failure goes to ``SHUTDOWN``.
 * ``WAIT_UNTIL_CHARGED`` ends in ``SHUTDOWN`` when charged or preempted, or, with
   ``resume_after_charging``, goes through ``UNDOCK`` back to ``MONITORED_PATROL`` at the goal that was
@@ -22,9 +23,10 @@ class only supplies what each state *does* when entered or left. Names and outco
   was interrupted, ``aborted`` (no confident pose after every stage) goes to ``SHUTDOWN`` with the reason.
 
 States of your own are added without patching: tasks at the goal poses (:mod:`navigation.tasks`; each
-becomes ``POSE_i_<TASK>`` after ``POSE_i``) and monitor regions beside the battery monitors
-(:class:`Monitor`). The machine is built from its own tables (:attr:`PatrolMachine.states_table`,
-``transitions_table``), so the diagram and the event log show the added states too.
+becomes ``POSE_i_<TASK>`` after ``POSE_i``) and monitor regions beside the robot battery monitor
+(:class:`Monitor`; the laptop's battery is one, :func:`navigation.laptop_monitor.laptop_battery_monitor`). The
+machine is built from its own tables (:attr:`PatrolMachine.states_table`, ``transitions_table``), so the diagram
+and the event log show the added states too.
 
 Work is started on entry and cancelled on exit, and all waiting happens on the simulation clock.
 A preemption request (Ctrl-C) is sticky, like smach's: the running action is cancelled, and any state
@@ -35,7 +37,6 @@ from __future__ import annotations
 
 import copy
 import logging
-import math
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -58,7 +59,6 @@ OUTCOME = "shutdown"
 MONITORED_PATROL = "MONITORED_PATROL"
 PATROL = f"{MONITORED_PATROL}{SEP}PATROL"
 ROBOT_MONITOR = f"{MONITORED_PATROL}{SEP}ROBOT_BATTERY_MONITOR"
-LAPTOP_MONITOR = f"{MONITORED_PATROL}{SEP}LAPTOP_BATTERY_MONITOR"
 DOCK_AT_STATION = "DOCK_AT_STATION"
 MOVE_TO_STATION = f"{DOCK_AT_STATION}{SEP}MOVE_TO_STATION"
 DOCK = f"{DOCK_AT_STATION}{SEP}DOCK"
@@ -68,9 +68,9 @@ SHUTDOWN = "SHUTDOWN"
 LOCALIZE = "LOCALIZE"
 #: Where a monitor's outcome may lead: the top-level states outside MONITORED_PATROL.
 MONITOR_DESTINATIONS = (DOCK_AT_STATION, WAIT_UNTIL_CHARGED, UNDOCK, SHUTDOWN)
-_BUILT_IN_TRIGGERS = ("start", "succeeded", "aborted", "preempted", "robot_battery_low", "laptop_battery_low",
-                      "robot_battery_empty", "charged", "localization_lost", "localized")
-#: The top-level states outside MONITORED_PATROL where the monitors keep watching (SHUTDOWN ends everything).
+_BUILT_IN_TRIGGERS = ("start", "succeeded", "aborted", "preempted", "robot_battery_low", "robot_battery_empty",
+                      "charged", "localization_lost", "localized")
+#: The top-level states outside MONITORED_PATROL where the added monitors keep watching (SHUTDOWN ends everything).
 OUTSIDE_STATES = (DOCK_AT_STATION, WAIT_UNTIL_CHARGED, UNDOCK, LOCALIZE)
 
 RESULT_TRIGGER = {GoalStatus.SUCCEEDED: "succeeded", GoalStatus.ABORTED: "aborted",
@@ -83,7 +83,7 @@ def pose_state(i: int) -> str:
 
 @dataclass(frozen=True)
 class Monitor:
-    """A state of your own running beside the patrol inside MONITORED_PATROL, as the battery monitors do.
+    """A state of your own running beside the patrol inside MONITORED_PATROL, as the robot battery monitor does.
 
     ``task`` watches (its ``state`` names the region); when it finishes with one of the words in
     ``outcomes`` (its own trigger names, not succeeded/aborted/preempted, which the patrol's states use),
@@ -132,8 +132,6 @@ def patrol_states(n_poses: int, tasks: Sequence[Sequence[str]] = (), monitors: S
             {"name": "PATROL", "children": poses, "initial": pose_state(first_pose)},
             {"name": "ROBOT_BATTERY_MONITOR", "on_enter": "start_robot_battery_monitor",
              "on_exit": "stop_monitor"},
-            {"name": "LAPTOP_BATTERY_MONITOR", "on_enter": "start_laptop_battery_monitor",
-             "on_exit": "stop_laptop_monitor"},
             *added,
         ]},
         {"name": "DOCK_AT_STATION", "initial": "MOVE_TO_STATION", "children": [
@@ -192,7 +190,6 @@ def patrol_transitions(n_poses: int, tasks: Sequence[Sequence[str]] = (), first_
         {"trigger": "robot_battery_low", "source": ROBOT_MONITOR, "dest": DOCK_AT_STATION,
          "conditions": "has_station"},
         {"trigger": "robot_battery_low", "source": ROBOT_MONITOR, "dest": SHUTDOWN},
-        *({"trigger": "laptop_battery_low", "source": s, "dest": SHUTDOWN} for s in (LAPTOP_MONITOR, *OUTSIDE_STATES)),
         {"trigger": "robot_battery_low", "source": LOCALIZE, "dest": DOCK_AT_STATION, "conditions": "has_station"},
         {"trigger": "robot_battery_low", "source": LOCALIZE, "dest": SHUTDOWN},
         *({"trigger": "robot_battery_empty", "source": s, "dest": SHUTDOWN}
@@ -260,7 +257,7 @@ class PatrolMachine:
     historical name: tasks and recorders that need the simulator's own parts reach them through it).
 
     ``tasks[i]`` are done at pose ``i`` after its goal is reached, each as a state of its own; ``monitors``
-    run beside the battery monitors. ``first_pose`` is where PATROL starts (a lap ends with the pose before
+    run beside the robot battery monitor. ``first_pose`` is where PATROL starts (a lap ends with the pose before
     it); with ``stop_on_failure`` an aborted goal or task ends the patrol. ``camera`` returns a frame of the
     robot's camera for tasks that take pictures, and ``output_dir`` is where they save files.
     """
@@ -295,7 +292,6 @@ class PatrolMachine:
         self._resume_pose = 0
         self._token = 0
         self._unsubscribe: Callable[[], None] | None = None
-        self._laptop_timer: TimerHandle | None = None
         self._power_timer: TimerHandle | None = None
         self._wait_timer: TimerHandle | None = None
         self.end_reason = ""  # why the patrol ended by itself when that is not a preemption (LOCALIZE gave up)
@@ -407,14 +403,14 @@ class PatrolMachine:
         """Enter MONITORED_PATROL (the machine is created in transitions' implicit ``initial`` state)."""
         self.machine.get_state(PATROL).initial = pose_state(self.first_pose)
         self.sim.events.subscribe(self._watch_localization)
+        self.sim.events.subscribe(self._note_monitor_reason)
         self._power_timer = self.sim.clock.every(self.monitor_period, self._watch_power, first=0.0)
         self.trigger("start")  # type: ignore[attr-defined]
 
     def _watch_power(self) -> None:
         """In every state: a robot battery that is empty and not charging ends the run, named as such (its
-        motors stopped; move_base would otherwise abort the goal as "no progress"); outside MONITORED_PATROL,
-        where its region does not run, the laptop's battery is watched too (it can die on the dock), and in
-        LOCALIZE the robot's low battery too."""
+        motors stopped; move_base would otherwise abort the goal as "no progress"); in LOCALIZE, where the
+        robot battery monitor's region does not run, a low robot battery too."""
         if self.finished:
             return
         battery = self.sim.robot_battery
@@ -425,15 +421,18 @@ class PatrolMachine:
             self.sim.events.emit("robot_battery", event="EMPTY", percentage=round(battery.percentage, 2),
                                  state=self.entering)
             self.trigger("robot_battery_empty")  # type: ignore[attr-defined]
-        elif self.sim.laptop_battery.is_low and any(s in OUTSIDE_STATES for s in self.active_states()):
-            self._laptop_low()
         elif battery.is_low and LOCALIZE in self.active_states():  # lost and low: dock (or stop) as in PATROL
             self.trigger("robot_battery_low")  # type: ignore[attr-defined]
 
-    def _laptop_low(self) -> None:
-        percent = math.floor(10.0 * self.sim.laptop_battery.percentage) / 10.0  # below the threshold, as shown
-        self.end_reason = f"laptop battery low ({percent:.1f} %, not charging)"
-        self.trigger("laptop_battery_low")  # type: ignore[attr-defined]
+    def _note_monitor_reason(self, ev: dict[str, Any]) -> None:
+        """An added monitor whose result ends the run (its outcome leads to SHUTDOWN) gives the run its reason:
+        the result's text, e.g. ``laptop battery low (19.9 %, not charging)``."""
+        if ev["type"] != "task_result" or self.finished:
+            return
+        for monitor in self.monitors:
+            if ev.get("state") == f"{MONITORED_PATROL}{SEP}{monitor.state}" and \
+                    monitor.outcomes.get(ev.get("status", "")) == SHUTDOWN:
+                self.end_reason = str(ev.get("text") or ev["status"])
 
     def request_preempt(self, reason: str = "preempted") -> None:
         """What Ctrl-C does: cancel whatever runs; every state entered from now on ends as preempted."""
@@ -615,20 +614,6 @@ class PatrolMachine:
         self.relocalize.cancel()
 
     # -- SHUTDOWN -------------------------------------------------------------------------------------
-    def start_laptop_battery_monitor(self, _event: Any) -> None:
-        def poll() -> None:
-            if self.sim.laptop_battery.is_low:
-                if self._laptop_timer is not None:
-                    self._laptop_timer.cancel()
-                self._laptop_low()
-
-        self._laptop_timer = self.sim.clock.every(self.monitor_period, poll, first=0.0)
-
-    def stop_laptop_monitor(self, _event: Any) -> None:
-        if self._laptop_timer is not None:
-            self._laptop_timer.cancel()
-            self._laptop_timer = None
-
     def shutdown(self, _event: Any) -> None:
         if self._power_timer is not None:
             self._power_timer.cancel()

@@ -26,7 +26,7 @@ from strictio.atomic import check_replaceable, remove_stale_temporaries, tempora
 from strictio.shown import drawable
 from strictio.video import VideoFile
 
-from .costmap_filters import blend_overlay
+from .costmap_filters import KEEPOUT_COLOUR, SPEED_COLOUR, blend_overlay
 from .docking import DockingStation
 from .geometry import Pose2D
 from .maps import OccupancyMap
@@ -49,6 +49,79 @@ KIDNAP_COLOUR = (20, 20, 20)
 
 
 Point = tuple[float, float]
+Colour = tuple[int, int, int]
+
+#: A dashed line's dash and gap along the line, in pixels.
+DASH, GAP = 10.0, 7.0
+
+
+def draw_dashed(img: np.ndarray, points: Sequence[tuple[int, int]], colour: Colour, thickness: int = 1,
+                dash: float = DASH, gap: float = GAP) -> None:
+    """A dashed polyline through pixel ``points``: dashes of ``dash`` pixels, ``gap`` pixels apart, measured along
+    the line, so a track sampled every pixel or two is dashed as plainly as one with long segments."""
+    pts = np.asarray(points, dtype=np.float64).reshape(-1, 2)
+    if len(pts) < 2:
+        return
+    period = dash + gap
+    along = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(pts, axis=0).T))])
+    for a, b, s0, s1 in zip(pts[:-1], pts[1:], along[:-1], along[1:], strict=True):
+        if s1 <= s0:
+            continue
+        start = s0 - (s0 % period)  # the dash that s0 falls in, or the one before it
+        while start < s1:
+            lo, hi = max(s0, start), min(s1, start + dash)
+            if hi > lo:
+                p = a + (b - a) * (lo - s0) / (s1 - s0)
+                q = a + (b - a) * (hi - s0) / (s1 - s0)
+                cv2.line(img, (round(p[0]), round(p[1])), (round(q[0]), round(q[1])), colour, thickness, cv2.LINE_AA)
+            start += period
+
+
+#: What the patrol picture's key says of each zone.
+ZONE_NOTES = {"keepout zone": "never planned through", "speed zone": "speed capped (darker: slower)"}
+
+
+def first_passes(points: Sequence[tuple[int, int]], spacing: float = 3.0) -> list[list[tuple[int, int]]]:
+    """The runs of pixel ``points`` that go where the line has not been before: a point within ``spacing`` pixels
+    of a part of the line passed more than a few spacings earlier is left out. A path gone along back and forth
+    (a trolley between two ends) is then dashed once; dashes of the passes over it would fill each other's gaps."""
+    seen: dict[tuple[int, int], float] = {}
+    runs: list[list[tuple[int, int]]] = []
+    run: list[tuple[int, int]] = []
+    along, previous = 0.0, None
+    for p in points:
+        if previous is not None:
+            along += math.dist(p, previous)
+        previous = p
+        cx, cy = int(p[0] // spacing), int(p[1] // spacing)
+        earlier = (seen.get((cx + i, cy + j), math.inf) for i in (-1, 0, 1) for j in (-1, 0, 1))
+        if min(earlier) < along - 4.0 * spacing:  # been here before, not just now
+            if len(run) >= 2:
+                runs.append(run)
+            run = []
+            continue
+        seen.setdefault((cx, cy), along)
+        run.append(p)
+    if len(run) >= 2:
+        runs.append(run)
+    return runs
+
+
+def zone_legend(zones: np.ndarray | None) -> list[tuple[str, Colour]]:
+    """The legend entries of a zone layer (:func:`navigation.costmap_filters.zone_overlay`): the keepout zone and
+    the speed zone, each only when the layer has cells of it, in the colour it has over free space (the layer's
+    typical opacity blended over white), so the key looks like the map."""
+    if zones is None:
+        return []
+    drawn = zones[..., 3] > 0
+    entries: list[tuple[str, Colour]] = []
+    for label, colour in (("keepout zone", KEEPOUT_COLOUR), ("speed zone", SPEED_COLOUR)):
+        cells = drawn & np.all(zones[..., :3] == colour, axis=-1)
+        if cells.any():
+            alpha = float(np.median(zones[..., 3][cells])) / 255.0
+            shown = tuple(round(255.0 * (1.0 - alpha) + c * alpha) for c in colour)
+            entries.append((label, (shown[0], shown[1], shown[2])))
+    return entries
 
 
 @dataclass
@@ -211,10 +284,7 @@ def _draw_localization(canvas: _Canvas, pic: RunPicture, img: np.ndarray, until:
     marks = pic.localization
     if not marks:
         return
-    track = [canvas.px(x, y) for t, x, y in marks.believed if t <= until]
-    for k, (a, b) in enumerate(itertools.pairwise(track)):
-        if k % 2 == 0:
-            cv2.line(img, a, b, BELIEVED_COLOUR, 2, cv2.LINE_AA)
+    draw_dashed(img, [canvas.px(x, y) for t, x, y in marks.believed if t <= until], BELIEVED_COLOUR, 2)
     for t, believed, true in marks.lost:
         if t <= until:
             a, b = canvas.px(*believed), canvas.px(*true)
@@ -241,13 +311,26 @@ def _state_at(pic: RunPicture, t: float) -> str:
     return state
 
 
-def _label(img: np.ndarray, text: str, line: int = 0) -> None:
-    """Dark text on a white box at the top left, readable over any part of the map."""
+def _label(img: np.ndarray, text: str, line: int = 0, swatch: Colour | None = None) -> None:
+    """Dark text on a white box at the top left, readable over any part of the map; a ``swatch`` of a colour
+    before the text makes it a legend entry."""
     fs = _font_scale(img) * 1.1
     (w, h), base = cv2.getTextSize(drawable(text), cv2.FONT_HERSHEY_SIMPLEX, fs, 1)
     y = 6 + (h + base + 6) * line
-    cv2.rectangle(img, (4, y), (12 + w, y + h + base + 4), (255, 255, 255), -1)
-    cv2.putText(img, drawable(text), (8, y + h + 2), cv2.FONT_HERSHEY_SIMPLEX, fs, TEXT_COLOUR, 1, cv2.LINE_AA)
+    x = 8 if swatch is None else 8 + h + 6
+    cv2.rectangle(img, (4, y), (x + 4 + w, y + h + base + 4), (255, 255, 255), -1)
+    if swatch is not None:
+        cv2.rectangle(img, (8, y + 2), (8 + h, y + h + 2), swatch, -1)
+    cv2.putText(img, drawable(text), (x, y + h + 2), cv2.FONT_HERSHEY_SIMPLEX, fs, TEXT_COLOUR, 1, cv2.LINE_AA)
+
+
+def _keys(img: np.ndarray, pic: RunPicture, first_line: int) -> None:
+    """The legend under the caption: the zones (each with its colour) and the localisation marks."""
+    entries: list[tuple[str, Colour | None]] = [(f"{label}: {ZONE_NOTES[label]}", colour)
+                                                for label, colour in zone_legend(pic.zones)]
+    entries += [(text, None) for text in _localization_key(pic)]
+    for k, (text, swatch) in enumerate(entries):
+        _label(img, text, first_line + k, swatch)
 
 
 def render_still(pic: RunPicture, max_side: int = 1000) -> np.ndarray:
@@ -259,8 +342,10 @@ def render_still(pic: RunPicture, max_side: int = 1000) -> np.ndarray:
     _draw_localization(canvas, pic, img)
     if pic.trajectory:
         _draw_robot(canvas, pic, img, len(pic.trajectory) - 1)
-    for k, line in enumerate([*pic.caption.splitlines(), *_localization_key(pic)]):
+    captions = pic.caption.splitlines()
+    for k, line in enumerate(captions):
         _label(img, line, k)
+    _keys(img, pic, len(captions))
     return img
 
 
@@ -287,8 +372,7 @@ def render_frames(pic: RunPicture, max_side: int = 720, max_frames: int = 300, m
         _draw_localization(canvas, pic, img, pic.trajectory[done - 1][0])
         _draw_robot(canvas, pic, img, done - 1)
         _label(img, f"t = {pic.trajectory[done - 1][0]:7.1f} s   {_state_at(pic, pic.trajectory[done - 1][0])}")
-        for k, line in enumerate(_localization_key(pic)):
-            _label(img, line, k + 1)
+        _keys(img, pic, 1)
         yield img
 
 

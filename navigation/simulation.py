@@ -43,7 +43,19 @@ CONTACT_RELEASE = 0.05
 
 
 class StartPoseError(ValueError):
-    """The robot cannot start where it was asked to (off the map or inside an obstacle)."""
+    """The robot cannot start where it was asked to (off the map or inside an obstacle); the message names the
+    file that puts something there: the map file, or the world file and its objects on the pose."""
+
+
+def _start_refusal(occ_map: OccupancyMap, world: World | None, start: Pose2D, radius: float) -> str:
+    """Why the robot cannot start at ``start``: the map (off it, or in one of its obstacles), else the things of
+    the world that stand there."""
+    where = f"start pose ({start.x:.3f}, {start.y:.3f}) puts the robot (radius {radius:g} m)"
+    inside = world.colliding(start.x, start.y, radius) if world is not None else []
+    if world is not None and inside:
+        names = ", ".join(repr(name) for name in inside)
+        return f"{world.source or 'the world'}: {where} inside an obstacle of the world: {names}"
+    return f"{occ_map.source or 'the map'}: {where} off the map or inside an obstacle"
 
 
 @dataclass(frozen=True)
@@ -70,6 +82,15 @@ class SimConfig:
     record_every: int = 1  # keep the trajectory every N steps for pictures; 0 keeps none
     localization: str = "exact"  # "exact" (true pose), "amcl" (particle filter on laser scans), "odometry"
     amcl: AmclParams = field(default_factory=AmclParams)
+    # The global planner's settings (cost shape, keepout cells: navigation.nav_params sets them); None: the robot's
+    # radius and ``inflation_margin`` with the planner's defaults. The simulation builds its planner once from them.
+    planner: PlannerParams | None = None
+
+    def planner_params(self) -> PlannerParams:
+        """What the simulation's planner is built with."""
+        if self.planner is not None:
+            return self.planner
+        return PlannerParams(robot_radius=self.robot.radius, inflation_margin=self.inflation_margin)
 
 
 class Simulation:
@@ -98,11 +119,8 @@ class Simulation:
             if self.world is not None else None
         radius = cfg.robot.radius
         if self._collides(start.x, start.y, radius):
-            raise StartPoseError(
-                f"start pose ({start.x:.3f}, {start.y:.3f}) puts the robot (radius {radius:g} m) "
-                "off the map or inside an obstacle")
-        self.planner = planner or Planner(
-            self.field, PlannerParams(robot_radius=radius, inflation_margin=cfg.inflation_margin))
+            raise StartPoseError(_start_refusal(occ_map, self.world, start, radius))
+        self.planner = planner or Planner(self.field, cfg.planner_params())
         self.start = start
         self.robot = DiffDriveRobot(start, cfg.robot)
         self.odom = Odometry(cfg.odom_linear_noise, cfg.odom_angular_noise, self.rng)

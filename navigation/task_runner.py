@@ -93,7 +93,10 @@ class TaskRunner:
         ctx.guard(lambda: task.start(ctx))  # a broken task aborts itself, not the patrol
 
     def stop(self, state: str) -> None:
-        """The state is left: a task still running is cancelled and its ending ignored."""
+        """The state is left: a task still running is cancelled and its ending ignored.
+
+        A task at a pose ends ``preempted``; a monitor only stops watching (``task_stop``), which is no result and
+        no failure: it stops each time its region is left and starts again in the next state it watches in."""
         ctx = self._contexts.pop(state, None)
         if ctx is None or ctx.finished:
             return
@@ -101,8 +104,11 @@ class TaskRunner:
         try:
             ctx.task.cancel(ctx)
         finally:
-            ctx.emit("task_result", task=getattr(ctx.task, "kind", ctx.task.state.lower()), status="preempted",
-                     text="state left")
+            kind = getattr(ctx.task, "kind", ctx.task.state.lower())
+            if state in self._monitors:
+                ctx.emit("task_stop", task=kind, text="state left")
+            else:
+                ctx.emit("task_result", task=kind, status="preempted", text="state left")
             if ctx.visit is not None:
                 ctx.visit.tasks.append(TaskOutcome(state, getattr(ctx.task, "kind", ""), "preempted", "state left",
                                                    self.machine.sim.clock.now))

@@ -13,6 +13,17 @@ from .base import as_bgr
 from .messages import DetectedObject2D
 
 PALETTE = [(0, 255, 255), (255, 0, 255), (0, 255, 0), (255, 128, 0), (0, 128, 255), (255, 255, 0)]
+FONT = cv2.FONT_HERSHEY_SIMPLEX
+FONT_SCALE = 0.5
+
+
+def label_origin(shape: tuple[int, ...], pts: np.ndarray, label: str) -> tuple[int, int]:
+    """Where a name's baseline starts: above the outline's top-left corner, moved inwards so the whole name
+    stays in the image (an object at the right edge, often cut by it, would otherwise lose its name's end)."""
+    (width, height), _ = cv2.getTextSize(drawable(label), FONT, FONT_SCALE, 1)
+    x, y = pts.min(axis=0)
+    x = min(int(x), shape[1] - width - 1)
+    return max(0, x), min(max(height + 2, int(y) - 5), shape[0] - 2)
 
 
 def draw_objects(image: np.ndarray, objects: Iterable[DetectedObject2D], thickness: int = 2) -> np.ndarray:
@@ -25,9 +36,6 @@ def draw_objects(image: np.ndarray, objects: Iterable[DetectedObject2D], thickne
             continue
         colour = colours.setdefault(obj.name, PALETTE[len(colours) % len(PALETTE)])
         cv2.polylines(canvas, [np.round(pts).astype(np.int32)], True, colour, thickness, cv2.LINE_AA)
-        x, y = pts.min(axis=0)
-        cv2.putText(
-            canvas, drawable(obj.name), (int(x), max(12, int(y) - 5)), cv2.FONT_HERSHEY_SIMPLEX, 0.5, colour, 1,
-            cv2.LINE_AA,
-        )
+        origin = label_origin(canvas.shape, pts, obj.name)
+        cv2.putText(canvas, drawable(obj.name), origin, FONT, FONT_SCALE, colour, 1, cv2.LINE_AA)
     return canvas

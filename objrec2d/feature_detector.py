@@ -12,7 +12,7 @@ from __future__ import annotations
 import logging
 import threading
 from collections.abc import Mapping
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from typing import Any
 
 import cv2
@@ -46,8 +46,8 @@ from .features.target import (
     target_to_state,
 )
 from .features.types import (
-    FEATURE_PARAMETERS,
     FEATURE_TYPES,
+    TARGET_PARAMETERS,
     FeatureConfig,
     FeatureUnavailable,
     check_available,
@@ -55,6 +55,7 @@ from .features.types import (
     types_using,
     unavailable_feature_types,
 )
+from .features.view_synthesis import MAX_VIEW_TILTS, VIEW_LONGITUDES
 from .messages import DetectedObject2D, Polygon
 
 log = logging.getLogger(__name__)
@@ -121,6 +122,20 @@ class FeatureDetector(ImageDetector):
     surf_hessian_threshold = Float(
         400.0, "SURF: Hessian threshold", min=1.0, max=10000.0, soft_max=2000.0, step=50.0,
         relevant={"feature_type": types_using("surf_hessian_threshold")},
+    )
+    view_tilts = Int(
+        0,
+        "Tilt levels of simulated oblique views whose keypoints join the target's (as ASIFT): 1 squashes it 1.41x "
+        "(seen 45 degrees off its normal), 2 also 2x (60 degrees), 3 also 2.83x (69 degrees). Finds a flat target "
+        "seen steeply; matching time grows with the extra target keypoints (view_longitudes)",
+        min=0, max=MAX_VIEW_TILTS,
+    )
+    view_longitudes = Choice(
+        "all", VIEW_LONGITUDES,
+        "Directions of the simulated squash: all (ASIFT's: 4 views at 1.41x, 5 at 2x, 8 at 2.83x; about 10x the "
+        "target's keypoints at 2 tilts) or sideways (along its width only, one view per tilt: a camera at the "
+        "target's height moving round it, as a robot's)",
+        relevant=lambda values: values.get("view_tilts", 0) > 0,
     )
     # -- matching --------------------------------------------------------------------------------------
     matcher = Choice(
@@ -203,7 +218,7 @@ class FeatureDetector(ImageDetector):
     def parameters_changed(self, changed: set[str]) -> None:
         """A new feature configuration recomputes the target from its stored image right away (not at
         the next frame), so the GUI shows the new keypoints at once; too few of them is logged."""
-        if changed & FEATURE_PARAMETERS and self._model is not None:
+        if changed & TARGET_PARAMETERS and self._model is not None:
             p = self.params
             model = self._model_for(FeatureConfig.from_parameters(p), p.matcher)
             needed = max(p.min_matches, p.min_inliers)
@@ -381,49 +396,51 @@ class FeatureDetector(ImageDetector):
         """One copy of the target from these matches in the frame ``gray``, or the failed attempt with the reason:
         every check a copy must pass, in order. ``keypoints`` is how many frame keypoints were still available."""
         p = self.params
-        found = FeatureMatch(DetectionStatus.TOO_FEW_MATCHES, None, frame_shape, frame_points, matches)
+
+        def failed(status: DetectionStatus, reason: str, **known: Any) -> FeatureMatch:
+            # The record is made only for a failed attempt, with what was learnt up to the failing check: a
+            # found copy's is made once in ``detect``, not rebuilt at every check.
+            return FeatureMatch(status, reason, frame_shape, frame_points, matches, **known)
+
         if len(matches) < p.min_matches:
             reason = f"too few matches: {len(matches)} of {keypoints} keypoints, min_matches is {p.min_matches}"
-            return _with(found, reason=reason)
+            return failed(DetectionStatus.TOO_FEW_MATCHES, reason)
+        source, destination = target.points[matches.target_idx], frame_points[matches.frame_idx]
         homography, inliers = estimate_homography(
-            target.points[matches.target_idx],
-            frame_points[matches.frame_idx],
+            source,
+            destination,
             p.homography_method,
             p.reprojection_threshold,
             p.homography_max_iterations,
             p.homography_confidence,
         )
         if homography is not None:
-            homography, inliers = refine_homography(
-                target.points[matches.target_idx], frame_points[matches.frame_idx], homography, inliers,
-                p.reprojection_threshold,
-            )
-        found = _with(found, inliers=inliers, homography=homography)
+            homography, inliers = refine_homography(source, destination, homography, inliers, p.reprojection_threshold)
         if homography is None:
             reason = (
                 f"no homography fits the {len(matches)} matches "
                 f"({p.homography_method}, homography_max_iterations is {p.homography_max_iterations})"
             )
-            return _with(found, status=DetectionStatus.NO_HOMOGRAPHY, reason=reason)
+            return failed(DetectionStatus.NO_HOMOGRAPHY, reason, inliers=inliers, homography=homography)
         count = int(inliers.sum())
         if count < p.min_inliers:
             reason = f"too few inliers: {count} of {len(matches)} matches, min_inliers is {p.min_inliers}"
-            return _with(found, status=DetectionStatus.TOO_FEW_INLIERS, reason=reason)
+            return failed(DetectionStatus.TOO_FEW_INLIERS, reason, inliers=inliers, homography=homography)
         roi = target.roi
-        coverage = inlier_coverage(target.points[matches.target_idx[inliers]], roi.width * roi.height)
-        found = _with(found, coverage=coverage)
+        coverage = inlier_coverage(source[inliers], roi.width * roi.height)
         if coverage < p.min_inlier_coverage:
             reason = (
                 f"inliers bunched: they span {coverage:.0%} of the target, "
                 f"min_inlier_coverage is {p.min_inlier_coverage:.0%}"
             )
-            return _with(found, status=DetectionStatus.BUNCHED_INLIERS, reason=reason)
+            return failed(DetectionStatus.BUNCHED_INLIERS, reason, inliers=inliers, homography=homography,
+                          coverage=coverage)
         quadrilateral, w = project(homography, target.corners())
         limits = PolygonLimits(p.min_area, p.max_area_fraction, p.min_corner_angle)
         problem = check_quadrilateral(quadrilateral, w, frame_shape, limits)
         if problem is not None:
-            reason = f"degenerate polygon: {problem}"
-            return _with(found, status=DetectionStatus.DEGENERATE_POLYGON, reason=reason, quadrilateral=quadrilateral)
+            return failed(DetectionStatus.DEGENERATE_POLYGON, f"degenerate polygon: {problem}", inliers=inliers,
+                          homography=homography, coverage=coverage, quadrilateral=quadrilateral)
         if p.photometric_refinement:
             homography, quadrilateral = self._aligned(target, gray, homography, quadrilateral, limits)
         return Instance(matches, inliers, homography, quadrilateral, coverage)
@@ -512,8 +529,3 @@ def _check_image(frame: Any) -> None:
     if not isinstance(frame, np.ndarray) or frame.dtype != np.uint8 or frame.ndim not in (2, 3) or frame.size == 0:
         what = f"{frame.dtype} array of shape {frame.shape}" if isinstance(frame, np.ndarray) else type(frame).__name__
         raise TargetError(f"FeatureDetector needs an 8-bit image (H x W or H x W x 3), got a {what}")
-
-
-def _with(result: FeatureMatch, **changes: Any) -> FeatureMatch:
-    """A copy of a frozen result with some fields replaced."""
-    return replace(result, **changes)

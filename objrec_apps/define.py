@@ -61,6 +61,11 @@ def build_parser() -> argparse.ArgumentParser:
                         "pipeline's own demo source)")
     parser.add_argument("--view", choices=("tabs", "grid"), help="show the stages as tabs or as a grid")
     parser.add_argument("--paused", action="store_true", help="start paused on the first frame")
+    # the choices are render_path.RENDERER_OPTIONS, written out: --help and a bad option work without Qt
+    parser.add_argument("--renderer", choices=("auto", "opengl", "software"), default=None,
+                        help="how the 3D view draws: auto (the default) takes OpenGL on a graphics card and the "
+                        "NumPy renderer where OpenGL is drawn by the processor; opengl or software forces one. "
+                        "Wins over OBJREC_RENDERER")
     parser.add_argument("--verbose", "-v", action="store_true", help="log more on stderr")
     return parser
 
@@ -154,6 +159,9 @@ def run(args: argparse.Namespace) -> int:
     if spec is None:  # each kind names its own demo; an empty window waits for one
         spec = objrec_core.get_kind(system.kind).demo_spec if system.kind else "demo"
     source = open_source(spec, system.kind)
+    from objrec_apps.gui import render_path
+
+    render_path.ask(args.renderer)
     application = application_class.instance() or application_class([PROG])
     application.setApplicationName(PROG)
     application.setOrganizationName("objrec")

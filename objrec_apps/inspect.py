@@ -22,6 +22,7 @@ from navigation.cli import COORDINATE, LAPS, TIME_LIMIT, YAW, format_summary
 from navigation.diagram import write_diagram
 from navigation.geometry import Pose2D
 from navigation.maps import load_map_metadata
+from navigation.nav_params import add_nav_params_options, in_keepout, nav_params_from_args, nav_params_inputs
 from navigation.runner import Summary
 from navigation.sim_options import add_simulation_options, simulation_config
 from strictio import InputError, OutputError
@@ -65,6 +66,7 @@ def build_parser() -> argparse.ArgumentParser:
                         metavar=("NAME", "DX", "DY"),
                         help="the robot meets this object shifted by DX, DY metres (repeatable)")
     add_simulation_options(p)
+    add_nav_params_options(p)
     p.add_argument("--diagram", metavar="PATH", help="Mermaid diagram of the machine with the mission's states")
     add_foxglove_argument(p)
     p.add_argument("-v", "--verbose", action="store_true", help="log progress on stderr")
@@ -79,10 +81,11 @@ def _open(args: argparse.Namespace) -> Inspection:
     except OSError as exc:
         raise InspectionError(f"{out}: cannot be created: {exc.strerror or exc}") from None
     config = simulation_config(args)
+    nav = nav_params_from_args(args)  # the parameters file under the command line's options, as objrec-patrol
     inspection = open_inspection(args.mission, args.map, args.world, remove=args.remove,
                                  shift=[(name, dx, dy) for name, dx, dy in args.shift],
                                  config=config, start=Pose2D(*args.start) if args.start else None, laps=args.laps,
-                                 out_dir=out)
+                                 out_dir=out, nav=nav)
     _check_output_paths(args, inspection)
     _warn_unreachable_goals(inspection)
     return inspection
@@ -90,7 +93,8 @@ def _open(args: argparse.Namespace) -> Inspection:
 
 def _warn_unreachable_goals(inspection: Inspection) -> None:
     """Warn, as objrec-patrol does, about a goal the robot cannot stand on: off the map, in one of its
-    obstacles, or in an object or obstacle of the world it drives in. Its goal will be aborted."""
+    obstacles, in an object or obstacle of the world it drives in, or in a keepout zone. Its goal will be
+    aborted."""
     radius = inspection.sim.config.robot.radius
     for i, goal in enumerate(inspection.machine.goals):
         inside = inspection.world.colliding(goal.x, goal.y, radius)
@@ -100,6 +104,8 @@ def _warn_unreachable_goals(inspection: Inspection) -> None:
         elif inspection.sim.field.collides(goal.x, goal.y, radius):
             log.warning("goal POSE_%d (%.2f, %.2f) is off the map or in an obstacle; it will be aborted",
                         i, goal.x, goal.y)
+        elif in_keepout(inspection.sim.planner, goal):
+            log.warning("goal POSE_%d (%.2f, %.2f) is in a keepout zone; it will be aborted", i, goal.x, goal.y)
 
 
 #: What the inspection writes into ``--out`` (besides ``photos/``), each checked before the run.
@@ -119,6 +125,8 @@ def _check_output_paths(args: argparse.Namespace, inspection: Inspection) -> Non
     mission = inspection.mission
     files = _named_files(args).reads(mission.poses_path, "the pose file")
     files.reads(load_map_metadata(args.map).image, "the map image")
+    for path, what in nav_params_inputs(args):  # the navigation parameters and their masks
+        files.reads(path, what)
     world = inspection.reference
     for thing in (*world.objects, *world.obstacles):
         files.reads(getattr(thing, "image_path", None), f"the picture of {thing.name} in the world file")

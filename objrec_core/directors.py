@@ -128,8 +128,7 @@ class _Director:
         self.system.set_modules([m for m in self.system.modules if not isinstance(m, Detector)] + [detector])
 
     def _header(self, frame: Frame) -> Header:
-        header = Header(seq=self._seq, stamp=frame.stamp, frame_id=frame.frame_id or self.frame_id,
-                        stamp_ns=frame.stamp_ns)
+        header = Header.fast(self._seq, frame.stamp, frame.frame_id or self.frame_id, frame.stamp_ns)
         self._seq += 1
         return header
 
@@ -199,16 +198,18 @@ class DetectionDirector(_Director):
         """One frame through the pipeline and every sink."""
         if not isinstance(frame, Frame):
             frame = Frame(frame, index=self._seq)
-        result = self.system.process(frame.data, keep_stages=self.keep_stages)
-        outcomes = [DetectorOutcome(d.id, d.type_name, n, None if n else result.reasons.get(d.id))
-                    for d, n in result.found] if self.outcome_sinks else []
-        array = self.system.object_array_type(self._header(frame), result.objects)
+        system = self.system
+        result = system.process(frame.data, self.keep_stages)
+        array = system.object_array_type(self._header(frame), result.objects)
         for sink in self.sinks:
             sink(array)
         for annotation_sink in self.annotation_sinks:
             annotation_sink(frame, array, result.stages)
-        for outcome_sink in self.outcome_sinks:
-            outcome_sink(array.header, outcomes)
+        if self.outcome_sinks:
+            outcomes = [DetectorOutcome(d.id, d.type_name, n, None if n else result.reasons.get(d.id))
+                        for d, n in result.found]
+            for outcome_sink in self.outcome_sinks:
+                outcome_sink(array.header, outcomes)
         return array
 
     def run(

@@ -89,7 +89,7 @@ def build_poster_parameters(poster: np.ndarray, path: Path) -> None:
     """A FeatureDetector taught the poster from its image, saved as a parameter file."""
     detector = FeatureDetector("poster", object_name="poster", feature_type="ORB", max_features=1500,
                                min_matches=12, min_inliers=12, reprojection_threshold=4.0,
-                               debug_view="side_by_side")
+                               view_tilts=2, view_longitudes="sideways", debug_view="side_by_side")
     detector.set_target(poster)
     system = RecognitionSystem([detector], object_name="poster",
                                description="The lab's safety poster, found by ORB keypoints and a homography. "

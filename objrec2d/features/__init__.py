@@ -1,6 +1,7 @@
 """The parts of the feature detector, one job each: feature types and their OpenCV 4/5 factories
 (``types``), matchers (``matching``), the homography and its sanity checks (``geometry``), the target
-(``target``), one frame's outcome (``result``) and the debug views (``debug``)."""
+(``target``) and its simulated oblique views (``view_synthesis``), one frame's outcome (``result``) and the
+debug views (``debug``)."""
 
 from .debug import keypoints_view, side_by_side
 from .geometry import (

@@ -69,6 +69,9 @@ class TrainedMatcher:
         self.binary = is_binary_norm(norm)
         self.target_descriptors = _check_descriptors(target_descriptors, self.binary, "target")
         self._matcher = cv2.BFMatcher(norm) if kind == "brute_force" else _flann_matcher(self.binary)
+        # The distance type BFMatcher computes in: integers for Hamming (and L1 on bytes), floats otherwise.
+        integer = self.binary or (norm == cv2.NORM_L1 and self.target_descriptors.dtype == np.uint8)
+        self._distance_type = cv2.CV_32S if integer else cv2.CV_32F
         self._matcher.add([self.target_descriptors])
         self._matcher.train()
 
@@ -92,8 +95,10 @@ class TrainedMatcher:
         if frame_descriptors is None or len(frame_descriptors) == 0 or len(self.target_descriptors) == 0:
             return Matches.empty()
         frame_descriptors = _check_descriptors(frame_descriptors, self.binary, "frame")
-        # Three plain lists filled in one pass: a table of tuples made into an array cost twice the time (0.15 ms
-        # of a busy VGA frame's ORB, the framework's largest share; benchmarks/bench_feature.py).
+        if self.kind == "brute_force":
+            return self._nearest(frame_descriptors, ratio)
+        # FLANN answers with one DMatch object per neighbour; three plain lists filled in one pass (a table of
+        # tuples made into an array cost twice the time).
         query: list[int] = []
         train: list[int] = []
         distance: list[float] = []
@@ -114,6 +119,26 @@ class TrainedMatcher:
         if not query:
             return Matches.empty()
         return Matches(np.array(query, np.int32), np.array(train, np.int32), np.array(distance, np.float32))
+
+    def _nearest(self, frame_descriptors: np.ndarray, ratio: float | None) -> Matches:
+        """The brute-force candidates as arrays: ``cv2.batchDistance``, the very call ``BFMatcher.knnMatch`` makes
+        (same norm, same distance type, same order and ties), without a DMatch object per neighbour and the
+        Python loop that reads them back (about 0.4 ms of a busy VGA frame's ORB; benchmarks/bench_feature.py)."""
+        k = 1 if ratio is None else 2
+        distances, nearest = cv2.batchDistance(
+            frame_descriptors, self.target_descriptors, self._distance_type, normType=self.norm, K=k
+        )
+        if nearest.ndim != 2 or nearest.shape[1] < k:  # fewer target descriptors than neighbours asked for
+            return Matches.empty()
+        if ratio is None:
+            keep = nearest[:, 0] >= 0
+        else:  # compared in double precision, as the DMatch floats were
+            best = distances[:, 0].astype(np.float64)
+            keep = (nearest[:, 1] >= 0) & (best < ratio * distances[:, 1].astype(np.float64))
+        query = np.flatnonzero(keep).astype(np.int32)
+        if len(query) == 0:
+            return Matches.empty()
+        return Matches(query, nearest[query, 0].astype(np.int32), distances[query, 0].astype(np.float32))
 
     def select(
         self,

@@ -25,6 +25,7 @@ from ..base import as_gray
 from ..sources import decode_image
 from .geometry import rect_corners
 from .types import FeatureConfig, create_feature2d, descriptor_norm
+from .view_synthesis import tilted_features
 
 log = logging.getLogger(__name__)
 
@@ -107,6 +108,16 @@ def _with_context(gray: np.ndarray, roi: Rect) -> tuple[np.ndarray, tuple[int, i
     return cv2.copyMakeBorder(gray, top, bottom, left, right, cv2.BORDER_REPLICATE), (left, top)
 
 
+def _with_tilted_views(extractor: Any, gray: np.ndarray, mask: np.ndarray, config: FeatureConfig,
+                       keypoints: tuple, descriptors: np.ndarray) -> tuple[tuple, np.ndarray]:
+    """The target's own keypoints followed by those of its simulated oblique views (one descriptor set)."""
+    extra, described = tilted_features(extractor, gray, mask, config.view_tilts, config.view_longitudes)
+    if not extra:
+        return keypoints, descriptors
+    parts = [descriptors, *described] if len(keypoints) else described
+    return keypoints + extra, np.vstack(parts)
+
+
 def compute_target(image: np.ndarray, roi: Rect, rect: Rect, config: FeatureConfig) -> Target:
     """Keypoints and descriptors of the selection ``roi`` of ``image``."""
     if clip_rect(roi, image.shape) != roi:
@@ -116,6 +127,8 @@ def compute_target(image: np.ndarray, roi: Rect, rect: Rect, config: FeatureConf
     mask[roi.y + dy : roi.y + dy + roi.height, roi.x + dx : roi.x + dx + roi.width] = 255
     extractor = create_feature2d(config)
     keypoints, descriptors = compute_features(extractor, gray, mask)
+    if config.view_tilts:
+        keypoints, descriptors = _with_tilted_views(extractor, gray, mask, config, keypoints, descriptors)
     if dx or dy:
         keypoints = tuple(
             cv2.KeyPoint(kp.pt[0] - dx, kp.pt[1] - dy, kp.size, kp.angle, kp.response, kp.octave, kp.class_id)

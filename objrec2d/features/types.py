@@ -39,8 +39,11 @@ TYPE_SETTINGS: Mapping[str, Mapping[str, str]] = {
     "SURF": {"surf_hessian_threshold": "hessianThreshold"},
 }
 
-#: Every parameter name that is part of some feature configuration.
+#: Every parameter name that is part of some feature configuration (its type's own settings).
 FEATURE_PARAMETERS: frozenset[str] = frozenset({"feature_type"}.union(*(s.keys() for s in TYPE_SETTINGS.values())))
+#: The parameters that decide a target's keypoints: the feature configuration, and how many tilted views of
+#: the target add theirs (``view_synthesis``; every type, so it is not in TYPE_SETTINGS).
+TARGET_PARAMETERS: frozenset[str] = FEATURE_PARAMETERS | {"view_tilts", "view_longitudes"}
 
 
 def types_using(parameter: str) -> tuple[str, ...]:
@@ -67,6 +70,8 @@ class FeatureConfig:
 
     type: str
     settings: tuple[tuple[str, Any], ...] = ()
+    view_tilts: int = 0  # tilt levels of simulated oblique views whose keypoints join the target's
+    view_longitudes: str = "all"  # at which longitudes those views are simulated (view_synthesis)
 
     @classmethod
     def from_parameters(cls, parameters: Any) -> FeatureConfig:
@@ -74,14 +79,23 @@ class FeatureConfig:
         feature_type = parameters.feature_type
         if feature_type not in TYPE_SETTINGS:
             raise ValueError(f"unknown feature type {feature_type!r} (known: {', '.join(FEATURE_TYPES)})")
-        return cls(feature_type, tuple((name, getattr(parameters, name)) for name in TYPE_SETTINGS[feature_type]))
+        settings = tuple((name, getattr(parameters, name)) for name in TYPE_SETTINGS[feature_type])
+        view_tilts = int(getattr(parameters, "view_tilts", 0))
+        longitudes = str(getattr(parameters, "view_longitudes", "all")) if view_tilts else "all"
+        return cls(feature_type, settings, view_tilts, longitudes)
 
     def to_dict(self) -> dict[str, Any]:
-        """As written into a parameter file: ``{type: SIFT, max_features: 1000, ...}``."""
+        """As written into a parameter file: ``{type: SIFT, max_features: 1000, ...}``. Without the views
+        (``view_tilts``, ``view_longitudes``): they decide how many keypoints are recomputed from the stored
+        image, not what a descriptor means, so a target saved with any views (or before they existed) loads
+        with the current ones."""
         return {"type": self.type, **dict(self.settings)}
 
     def describe(self) -> str:
-        settings = ", ".join(f"{k}={v}" for k, v in self.settings)
+        pairs = list(self.settings)
+        if self.view_tilts:
+            pairs += [("view_tilts", self.view_tilts), ("view_longitudes", self.view_longitudes)]
+        settings = ", ".join(f"{k}={v}" for k, v in pairs)
         return f"{self.type} ({settings})" if settings else self.type
 
 

@@ -35,6 +35,7 @@ from .cloud_render import (
     zoom_toward,
 )
 from .images import ImageBuffer, rgb_qimage
+from .label_placement import place_labels
 from .render_path import RenderPath
 
 BOX_COLOUR = QColor(255, 255, 0)
@@ -97,6 +98,8 @@ class CloudInteraction:
         self.scene = CloudScene()
         #: One outline per detected object, in the detection list's order (None: nothing to draw).
         self.outlines = []
+        #: Where the detections' names were written in the last frame drawn (tests look).
+        self.label_rects: list[QRectF] = []
         self.point_size = 1
         self.hidden: frozenset[int] = frozenset()
         self.show_grid = True
@@ -257,9 +260,13 @@ class CloudInteraction:
         painter.setRenderHint(QPainter.RenderHint.Antialiasing)
         if self.show_grid:
             self._draw_grid(painter)
+        labels: list[tuple[np.ndarray, str]] = []
         for number, outline in enumerate(self.outlines, 1):
             if outline is not None and outline.box is not None:
-                self._draw_box(painter, outline, number)
+                label = self._draw_box(painter, outline, number)
+                if label is not None:
+                    labels.append(label)
+        self._draw_labels(painter, labels)
         self._draw_legend(painter)
         if self.busy_text:
             self._draw_busy(painter)
@@ -297,10 +304,12 @@ class CloudInteraction:
         if da > NEAR and db > NEAR:
             painter.drawLine(QPointF(*a), QPointF(*b))
 
-    def _draw_box(self, painter: QPainter, outline: Outline, number: int) -> None:
+    def _draw_box(self, painter: QPainter, outline: Outline, number: int) -> tuple[np.ndarray, str] | None:
+        """The box and its axes; where its label goes (above the box's top corner) and what it says, None when
+        the box is behind the camera."""
         geometry = box_frame(outline.box)
         if geometry is None:
-            return
+            return None
         centre, axes, sides = geometry
         uv, depth = self.project(np.asarray(outline.box, dtype=np.float64))
         painter.setPen(QPen(BOX_COLOUR, 2))
@@ -313,11 +322,25 @@ class CloudInteraction:
         for axis in range(3):
             painter.setPen(QPen(AXIS_COLOURS[axis], 2))
             self._line(painter, uv_axes[0], uv_axes[axis + 1], depth_axes[0], depth_axes[axis + 1])
-        if depth_axes[0] > NEAR:
-            painter.setPen(QPen(BOX_COLOUR))
-            painter.setFont(QFont(painter.font().family(), 9))
-            top = uv[np.argmin(uv[:, 1])] if np.all(depth > NEAR) else uv_axes[0]
-            painter.drawText(QPointF(top[0] + 4, top[1] - 4), f"{number}: {outline.label}")
+        if depth_axes[0] <= NEAR:
+            return None
+        top = uv[np.argmin(uv[:, 1])] if np.all(depth > NEAR) else uv_axes[0]
+        return top + np.array([4.0, -4.0]), f"{number}: {outline.label}"
+
+    def _draw_labels(self, painter: QPainter, labels: list[tuple[np.ndarray, str]]) -> None:
+        """The detections' names, after every box, none over another nor past the view's edge."""
+        self.label_rects = []
+        if not labels:
+            return
+        painter.setPen(QPen(BOX_COLOUR))
+        painter.setFont(QFont(painter.font().family(), 9))
+        metrics = painter.fontMetrics()
+        sizes = [(float(metrics.horizontalAdvance(text) + 2), float(metrics.height())) for _, text in labels]
+        anchors = [(float(at[0]), float(at[1])) for at, _ in labels]
+        width, height = float(self.width()), float(self.height())  # type: ignore[attr-defined]
+        self.label_rects = place_labels(anchors, sizes, width, height)
+        for rect, (_, text) in zip(self.label_rects, labels, strict=True):
+            painter.drawText(rect, int(Qt.AlignmentFlag.AlignLeft | Qt.AlignmentFlag.AlignVCenter), text)
 
     def _draw_legend(self, painter: QPainter) -> None:
         painter.setFont(QFont(painter.font().family(), 9))

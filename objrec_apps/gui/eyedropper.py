@@ -4,7 +4,8 @@ Finding six thresholds by moving sliders is the slowest part of tuning a colour 
 points at already say what the ranges should be. A rectangle drawn loosely round an object also holds
 background, the object's specular highlights and perhaps a neighbour: only the pixels of its dominant colour
 are measured (saturation and value gates, then the largest hue cluster, then the largest brightness cluster;
-``object_pixels``), and robust percentiles (not the extremes) of those set the ranges. The hue is measured on
+``object_pixels``), and robust percentiles (not the extremes) of those set the ranges, the hue's grown by the
+object's own hue spread on each side (``semi_deviations``). The hue is measured on
 the circle, so red (hues on both sides of 0) gives a wrapping range (``h_min > h_max``) instead of "every
 hue". The six values go to the filter in ONE ``set_parameters`` call: one change, one undo step.
 
@@ -32,13 +33,19 @@ HUE_PERIOD = 180  # OpenCV's 8-bit hue: 0..179
 #: Percentiles of the object's pixels the ranges span: the outer 1 % each side are strays (noise, edges).
 LOW, HIGH = 1.0, 99.0
 #: Added beyond the percentiles, so the pixels of the same object in the next frames (noise, shading) stay in.
-#: The hue margin never reaches past the end of the object's hue cluster (next to it may be another colour).
+#: The hue margin is at least ``HUE_MARGIN``, and on each side at least the object's own hue spread on that side
+#: (its semi-deviation from the median hue): a colour whose shading already runs far along the hue circle (a
+#: glossy blue candy runs from 101 to 124 and, on candies turned a little further, on to 130) has more of it
+#: on the next object of its colour. It never reaches onto the hues of another cluster in the rectangle.
 HUE_MARGIN, SV_MARGIN = 2, 20
 #: A pixel has a hue worth taking when it is this saturated and this bright: white background, grey shadows
 #: and specular highlights (saturation near 0) and black (value near 0) have hues that are only noise.
 SATURATION_GATE, VALUE_GATE = 40, 20
-#: Two neighbouring histogram peaks are one colour unless the valley between them falls under this share of
-#: the lower peak (an orange candy's pure-red shading forms a peak of its own next to its orange hues).
+#: Two neighbouring histogram peaks, one of them made of pure primaries (``at_gamut_corner``), are one colour
+#: unless the valley between them falls under this share of the lower peak: an orange candy's most saturated
+#: part is clipped to pure red, the red candies' own colour, and forms a peak of its own next to its orange
+#: hues. Other neighbouring peaks are the object's own shading and always one colour (the shadowed side of a
+#: blue candy forms a peak at hue 129-130, beside its body's 101-124).
 VALLEY_SHARE = 0.2
 #: The value histogram's bin width: wide enough to smooth noise, narrow enough to part brown from red.
 VALUE_BIN = 8
@@ -48,11 +55,19 @@ VALUE_CORE = 0.03
 MIN_GATED_SHARE = 0.05
 
 
-def histogram_clusters(counts: np.ndarray, *, circular: bool) -> list[np.ndarray]:
+def at_gamut_corner(hsv: np.ndarray) -> np.ndarray:
+    """Which rows of ``hsv`` (N x 3, OpenCV HSV) are pure red, green or blue at full saturation: two channels
+    at 0, a corner of the sensor's gamut. Every saturated colour within reach of that primary (orange, pink,
+    purple) clips to the same pixel, so such a peak says nothing of which of them the object is."""
+    return (hsv[:, 1] == 255) & (hsv[:, 0] % (HUE_PERIOD // 3) == 0)
+
+
+def histogram_clusters(counts: np.ndarray, *, circular: bool, corner: np.ndarray | None = None) -> list[np.ndarray]:
     """The non-empty bins of ``counts`` grouped by colour: each an array of bin indices in order along the
     axis (a circular cluster may wrap past the last bin). Empty bins always separate clusters; inside a run
     of non-empty bins, the run is cut at its local minima and neighbouring parts are merged again unless the
-    valley between them is under ``VALLEY_SHARE`` of the lower of their two peaks."""
+    valley between them is under ``VALLEY_SHARE`` of the lower of their two peaks and one of the two peaks is
+    a ``corner`` bin (a boolean per bin; None: every bin, so any deep valley separates)."""
     n = len(counts)
     if not counts.any():
         return []
@@ -66,18 +81,18 @@ def histogram_clusters(counts: np.ndarray, *, circular: bool) -> list[np.ndarray
             run.append(index)
             continue
         if run:
-            clusters.extend(_split_run(counts, np.asarray(run)))
+            clusters.extend(_split_run(counts, np.asarray(run), corner))
         run = []
     return clusters
 
 
-def _split_run(counts: np.ndarray, run: np.ndarray) -> list[np.ndarray]:
+def _split_run(counts: np.ndarray, run: np.ndarray, corner: np.ndarray | None) -> list[np.ndarray]:
     values = counts[run].astype(np.float64)
+    separable = np.ones(len(run), bool) if corner is None else corner[run]
     cuts = [i for i in range(1, len(values) - 1) if values[i] <= values[i - 1] and values[i] < values[i + 1]]
     parts = [list(range(a, b)) for a, b in zip([0, *cuts], [*cuts, len(values)], strict=True)]
     while len(parts) > 1:
-        ratios = [values[parts[k + 1][0]] / min(values[parts[k]].max(), values[parts[k + 1]].max())
-                  for k in range(len(parts) - 1)]
+        ratios = [_valley(values, separable, parts[k], parts[k + 1]) for k in range(len(parts) - 1)]
         best = int(np.argmax(ratios))
         if ratios[best] < VALLEY_SHARE:
             break
@@ -85,16 +100,29 @@ def _split_run(counts: np.ndarray, run: np.ndarray) -> list[np.ndarray]:
     return [run[part] for part in parts]
 
 
+def _valley(values: np.ndarray, separable: np.ndarray, left: list[int], right: list[int]) -> float:
+    """The valley between two neighbouring parts of a run as a share of their lower peak; 1 (never parted)
+    where neither peak is ``separable``."""
+    peaks = (left[int(np.argmax(values[left]))], right[int(np.argmax(values[right]))])
+    if not separable[list(peaks)].any():
+        return 1.0
+    return float(values[right[0]] / min(values[left].max(), values[right].max()))
+
+
 def largest_cluster(values: np.ndarray, bins: int, *, width: int = 1, circular: bool = False,
-                    core: float = 0.0) -> np.ndarray:
+                    core: float = 0.0, corner: np.ndarray | None = None) -> np.ndarray:
     """Which of ``values`` (integers in 0..bins*width-1) fall in the most populated cluster of their histogram
     (bins of ``width`` values; see ``histogram_clusters``), as a boolean array. ``core`` > 0 keeps only the
     bins around the cluster's peak down to where the count first falls under that share of the peak: the
     long thin shoulder of pixels between two objects (an edge where a red candy's shading runs into a brown
-    one) is left out."""
+    one) is left out. ``corner`` (a boolean per value, see ``at_gamut_corner``) marks the values whose peak
+    may part from its neighbour at a deep valley; None: any peak may."""
     binned = values // width
     counts = np.bincount(binned, minlength=bins)
-    clusters = histogram_clusters(counts, circular=circular)
+    corner_bins = None
+    if corner is not None:  # a bin is a corner bin when most of its values are
+        corner_bins = 2 * np.bincount(binned, weights=corner.astype(np.float64), minlength=bins) > counts
+    clusters = histogram_clusters(counts, circular=circular, corner=corner_bins)
     best = max(clusters, key=lambda bins_: int(counts[bins_].sum()))
     if core > 0:
         along = counts[best]
@@ -116,16 +144,16 @@ def object_pixels(hsv: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     gated = hsv[(hsv[:, 1] >= SATURATION_GATE) & (hsv[:, 2] >= VALUE_GATE)]
     if len(gated) < max(1, MIN_GATED_SHARE * len(hsv)):
         return hsv, others
-    in_cluster = largest_cluster(gated[:, 0], HUE_PERIOD, circular=True)
+    in_cluster = largest_cluster(gated[:, 0], HUE_PERIOD, circular=True, corner=at_gamut_corner(gated))
     others[gated[~in_cluster, 0]] = True
     gated = gated[in_cluster]
     return gated[largest_cluster(gated[:, 2], 256 // VALUE_BIN, width=VALUE_BIN, core=VALUE_CORE)], others
 
 
 def hue_range(hue: np.ndarray, low: float, high: float, others: np.ndarray | None = None) -> tuple[int, int]:
-    """(h_min, h_max) spanning the ``low``..``high`` percentiles of ``hue`` measured on the circle, widened by
-    ``HUE_MARGIN`` but never onto the hues of ``others`` (the other colours seen beside the object);
-    h_min > h_max is a range wrapping around 0."""
+    """(h_min, h_max) spanning the ``low``..``high`` percentiles of ``hue`` measured on the circle, widened on
+    each side by ``HUE_MARGIN`` or the hues' spread on that side, whichever is larger, but never onto the hues
+    of ``others`` (the other colours seen beside the object); h_min > h_max is a range wrapping around 0."""
     counts = np.bincount(hue, minlength=HUE_PERIOD)
     empty = np.flatnonzero(counts == 0)
     if len(empty) == 0:
@@ -139,14 +167,25 @@ def hue_range(hue: np.ndarray, low: float, high: float, others: np.ndarray | Non
     h_lo, h_hi = np.percentile(turned, [low, high])
     lo, hi = int(np.floor(h_lo)), int(np.ceil(h_hi))
     taken = np.zeros(HUE_PERIOD, bool) if others is None else np.roll(others, -start)
-    for _ in range(HUE_MARGIN):
+    below, above = semi_deviations(turned)
+    for _ in range(max(HUE_MARGIN, int(np.ceil(below)))):
         if lo > 0 and not taken[lo - 1]:
             lo -= 1
+    for _ in range(max(HUE_MARGIN, int(np.ceil(above)))):
         if hi < HUE_PERIOD - 1 and not taken[(hi + 1) % HUE_PERIOD]:
             hi += 1
     if hi - lo >= HUE_PERIOD - 1:
         return 0, HUE_PERIOD - 1
     return (lo + start) % HUE_PERIOD, (hi + start) % HUE_PERIOD
+
+
+def semi_deviations(values: np.ndarray) -> tuple[float, float]:
+    """The spread of ``values`` below and above their median: the root mean square of the distances on that
+    side (counting the values on the other side as 0). A red candy's hues run far below its pure-red peak and
+    hardly above it, so its range grows towards pink and not towards orange."""
+    deviation = values - np.median(values)
+    return (float(np.sqrt(np.mean(np.minimum(deviation, 0) ** 2))),
+            float(np.sqrt(np.mean(np.maximum(deviation, 0) ** 2))))
 
 
 def hsv_ranges(bgr: np.ndarray, low: float = LOW, high: float = HIGH) -> dict[str, int]:
@@ -181,6 +220,12 @@ def hsv_filter_of(system: RecognitionSystem) -> Any | None:
     return None
 
 
+TOOLTIP = ("Drag a rectangle on a coloured object to set the HSV filter's ranges from its pixels (Ctrl+E; or hold "
+           "Shift while dragging)")
+NO_FILTER_TOOLTIP = ("The HSV eyedropper sets an HSV filter's ranges from the pixels of a rectangle; this pipeline "
+                     "has no HSV filter (add one from the Pipeline menu)")
+
+
 class Eyedropper(QObject):
     """The eyedropper of a definition window: a checkable action on a toolbar of its own and the picking.
 
@@ -193,11 +238,19 @@ class Eyedropper(QObject):
         self.report = report
         self.action = QAction("HSV eyedropper", parent, checkable=True)
         self.action.setShortcut(QKeySequence("Ctrl+E"))
-        self.action.setToolTip("Drag a rectangle on a coloured object to set the HSV filter's ranges from its "
-                               "pixels (Ctrl+E; or hold Shift while dragging)")
         self.toolbar = QToolBar("Tuning", parent)
         self.toolbar.setObjectName("tuning_toolbar")
         self.toolbar.addAction(self.action)
+        self.follow_pipeline()
+
+    def follow_pipeline(self) -> None:
+        """Enabled while the pipeline has an HSV filter to set, greyed out (its tooltip saying why) while it has
+        none: on a feature or a 3D pipeline the button could only ever answer that there is nothing to set."""
+        usable = hsv_filter_of(self.system) is not None
+        if not usable and self.action.isChecked():
+            self.action.setChecked(False)  # drags go to the detectors again
+        self.action.setEnabled(usable)
+        self.action.setToolTip(TOOLTIP if usable else NO_FILTER_TOOLTIP)
 
     def wants(self, modifiers: Any) -> bool:
         """Whether a drag made with these keyboard modifiers is for the eyedropper."""

@@ -494,18 +494,26 @@ class DefinitionGUI(QMainWindow):
         ended, sought = self.worker.ended, self.seek_bar.pending
         self.seek_bar.source_failed(text, ended)
         shown = self.seek_bar.shown
-        if not ended or self.seek_bar.length is None or shown is None:
+        if not ended:
             return
-        if sought is not None and sought != shown:
-            self.worker.seek(shown)  # a seek that failed: back to the frame on screen, Step and Play go on
-        elif self.worker.loop and self._restarted_at != self.worker.processed:
-            self._restarted_at = self.worker.processed
-            self.worker.seek(0)
+        if self.seek_bar.length is not None and shown is not None:
+            if sought is not None and sought != shown:
+                self.worker.seek(shown)  # a seek that failed: back to the frame on screen, Step and Play go on
+                return
+            if self.worker.loop and self._restarted_at != self.worker.processed:
+                self._restarted_at = self.worker.processed
+                self.worker.seek(0)
+                return
+        # The source stops here, as at its end: the bars say so, not the rate of the last second's frames.
+        source = self.worker.source
+        self.source_bar.set_source_name(source.name if source is not None else "", ended=True)
+        self._frames_stopped("ended")
 
     def _follow_kind(self) -> None:
         """Show the page for the pipeline's kind; a spec waiting for a kind opens now, and a pipeline whose
         kind changed gets that kind's demo source."""
         self._update_title()
+        self.eyedropper.follow_pipeline()
         kind = self._kind(self.system.kind)
         if kind is None:
             return

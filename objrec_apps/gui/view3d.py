@@ -162,9 +162,9 @@ class View3D(QWidget):
         self.fps_label = QLabel()
         path = self.cloud_view.render_path
         self.fps_label.setToolTip(f"Frames the 3D view really drew in the last second, and the time of the last "
-                                  f"one. Drawn by the {path.name}: {path.reason}. OBJREC_RENDERER=opengl or "
-                                  f"software overrides the choice. While the view turns, a large cloud is "
-                                  f"thinned; it is drawn whole once the view stops.")
+                                  f"one. Drawn by the {path.name}: {path.reason}. objrec-define --renderer "
+                                  f"opengl or software (or OBJREC_RENDERER) overrides the choice. While the "
+                                  f"view turns, a large cloud is thinned; it is drawn whole once the view stops.")
         controls.addWidget(self.fps_label)
         self._fps_timer = QTimer(self)
         self._fps_timer.setInterval(500)

@@ -24,6 +24,7 @@ from typing import Any
 from PySide6.QtCore import QObject, Signal
 
 from objrec_core import Change, DefinitionDirector, Frame, FrameSource, SourceError, StageResults, open_source
+from strictio import InputError
 
 from .preview import PREVIEW_AFTER_S, PreviewRunner
 from .seek_bar import SourceFacts
@@ -485,7 +486,9 @@ class ProcessingWorker(QObject):
             return None
         except Exception as exc:  # SourceError says what broke; anything else from a source too, not silently
             self._ended = True
-            if not isinstance(exc, SourceError):
+            # A bad file (a truncated video: InputError naming the file and frame) is the user's data, not a
+            # bug: its one line goes to the window, with no traceback on the terminal.
+            if not isinstance(exc, (SourceError, InputError)):
                 log.exception("source %s failed", self._source.name if self._source is not None else "")
             self.failed.emit(str(exc) if isinstance(exc, SourceError) else f"the source failed: {exc}")
             return None

@@ -5,21 +5,24 @@ dot at its map position (green when it is an expected object present, orange whe
 from where it should have been, blue when nobody expected it); an expected object not found is a red
 cross, one not checked a grey question mark. Obstacles the map does not know are brown outlines, a moving one
 with the path it went along (dashed). A goal whose visit aborted is a red goal with a cross; a collision is
-a magenta star (never the red cross of a missing object). Every mark has its entry in the legend, which
-wraps onto more rows on a narrow map rather than running off the picture.
+a magenta star (never the red cross of a missing object). Keepout and speed zones (``--keepout-mask``,
+``--speed-mask``) are tinted red and amber, as on the patrol's picture. Every mark has its entry in the legend
+(a zone's only when there is one), which wraps onto more rows on a narrow map rather than running off the
+picture.
 """
 
 from __future__ import annotations
 
-import itertools
 import math
 from collections.abc import Sequence
 
 import cv2
 import numpy as np
 
+from navigation.costmap_filters import blend_overlay
 from navigation.geometry import Pose2D
 from navigation.maps import OccupancyMap
+from navigation.render import draw_dashed, first_passes, zone_legend
 from navigation.world import World, WorldObject
 from strictio.shown import drawable
 
@@ -62,6 +65,12 @@ class _View:
         self.map = occ_map
         self.px_per_m = self.scale / occ_map.resolution
 
+    def tint(self, zones: np.ndarray) -> None:
+        """Blend a zone layer (BGRA over the map's cells, row 0 at the bottom) over the picture."""
+        layer = zones[self.r0:self.r1, self.c0:self.c1][::-1]
+        layer = cv2.resize(layer, (self.image.shape[1], self.image.shape[0]), interpolation=cv2.INTER_NEAREST)
+        self.image = blend_overlay(self.image, layer)
+
     def px(self, x: float, y: float) -> tuple[int, int]:
         gx, gy = self.map.world_to_grid(x, y)
         return (round((gx - self.c0) * self.scale), round((self.r1 - gy) * self.scale))
@@ -86,9 +95,13 @@ def _outline(view: _View, img: np.ndarray, thing: WorldObject, colour: tuple[int
 
 def draw_inspection(occ_map: OccupancyMap, reference: World, simulated: World, report: InspectionReport,
                     trajectory: Sequence[tuple[float, float, float, float]], goals: Sequence[Pose2D],
-                    collisions: Sequence[tuple[float, float]] = (), caption: str = "", max_side: int = 1000
-                    ) -> np.ndarray:
+                    collisions: Sequence[tuple[float, float]] = (), caption: str = "", max_side: int = 1000,
+                    zones: np.ndarray | None = None) -> np.ndarray:
+    """The picture; ``zones`` is the keepout and speed zones' layer
+    (:func:`navigation.nav_params.apply_to_simulation` returns it), None when there are none."""
     view = _View(occ_map, max_side)
+    if zones is not None:
+        view.tint(zones)
     img = view.image
     fs = max(0.4, min(img.shape[:2]) / 1500.0)
     for obj in reference.objects:
@@ -99,7 +112,8 @@ def draw_inspection(occ_map: OccupancyMap, reference: World, simulated: World, r
     for obstacle in simulated.obstacles:
         body = obstacle.body if hasattr(obstacle, "body") else obstacle
         if hasattr(obstacle, "position_at"):
-            _dashed(img, [view.px(*obstacle.position_at(t)) for t in np.linspace(0.0, end, 400)], OBSTACLE)
+            for run in first_passes([view.px(*obstacle.position_at(t)) for t in np.linspace(0.0, end, 400)]):
+                draw_dashed(img, run, OBSTACLE, thickness=2, dash=8.0, gap=10.0)
         _outline(view, img, body, OBSTACLE)
         p = view.px(body.x, body.y)
         _text(img, obstacle.name, (p[0] + 8, p[1] + 4), OBSTACLE, fs * 0.9)
@@ -145,18 +159,8 @@ def draw_inspection(occ_map: OccupancyMap, reference: World, simulated: World, r
         cv2.circle(img, f, 6, colour, -1, cv2.LINE_AA)
     for x, y in collisions:
         cv2.drawMarker(img, view.px(x, y), COLLISION, cv2.MARKER_STAR, 16, 2)
-    return np.vstack([_band(img.shape[1], caption, fs), img])
-
-
-def _dashed(img: np.ndarray, points: Sequence[tuple[int, int]], colour: tuple[int, int, int]) -> None:
-    """A dashed polyline: every other run of about eight pixels along the points."""
-    drawn, on = 0.0, True
-    for a, b in itertools.pairwise(points):
-        if on:
-            cv2.line(img, a, b, colour, 1, cv2.LINE_AA)
-        drawn += math.dist(a, b)
-        if drawn >= 8.0:
-            drawn, on = 0.0, not on
+    legend = LEGEND + [(label, colour, "patch") for label, colour in zone_legend(zones)]
+    return np.vstack([_band(img.shape[1], caption, fs, legend), img])
 
 
 def _mark(band: np.ndarray, x: int, y: int, colour: tuple[int, int, int], mark: str, fs: float) -> None:
@@ -171,8 +175,8 @@ def _mark(band: np.ndarray, x: int, y: int, colour: tuple[int, int, int], mark: 
     elif mark == "question":
         cv2.putText(band, "?", (x + 3, y + 1), FONT, fs * 1.4, colour, 2, cv2.LINE_AA)
     elif mark == "dashed":
-        for k in range(0, 16, 6):
-            cv2.line(band, (x + k, y - 5), (x + k + 3, y - 5), colour, 1, cv2.LINE_AA)
+        for k in (0, 10):  # two dashes as on the map
+            cv2.line(band, (x + k, y - 5), (x + k + 5, y - 5), colour, 2, cv2.LINE_AA)
     elif mark in ("goal", "aborted"):
         cv2.circle(band, (x + 4, y - 5), 4, colour, 1, cv2.LINE_AA)
         cv2.arrowedLine(band, (x + 4, y - 5), (x + 17, y - 5), colour, 1, cv2.LINE_AA, tipLength=0.35)
@@ -180,17 +184,20 @@ def _mark(band: np.ndarray, x: int, y: int, colour: tuple[int, int, int], mark: 
             cv2.drawMarker(band, (x + 4, y - 5), colour, cv2.MARKER_TILTED_CROSS, 12, 2)
     elif mark == "star":
         cv2.drawMarker(band, c, colour, cv2.MARKER_STAR, 16, 2)
+    elif mark == "patch":
+        cv2.rectangle(band, (x + 1, y - 12), (x + 15, y + 2), colour, -1)
     else:
         cv2.line(band, (x, y - 5), (x + 16, y - 5), colour, 2, cv2.LINE_AA)
 
 
-def _band(width: int, caption: str, fs: float) -> np.ndarray:
+def _band(width: int, caption: str, fs: float,
+          legend: Sequence[tuple[str, tuple[int, int, int], str]] = tuple(LEGEND)) -> np.ndarray:
     """A white strip above the map: the caption, then a legend of the marks, on as many rows as the width needs."""
     line = round(30 * fs / 0.6)
     captions = caption.splitlines()
     placed: list[tuple[int, int, str, tuple[int, int, int], str]] = []
     x, row = 8, 0
-    for label, colour, mark in LEGEND:
+    for label, colour, mark in legend:
         w = 20 + cv2.getTextSize(drawable(label), FONT, fs, 1)[0][0]
         if x > 8 and x + w > width - 8:
             x, row = 8, row + 1

@@ -20,6 +20,7 @@ from navigation.docking import DockingStation
 from navigation.geometry import Pose2D
 from navigation.laser import LaserParams
 from navigation.maps import MapError, OccupancyMap, load_map
+from navigation.nav_params import NavParams, apply_to_simulation, configure_simulation
 from navigation.patrol import PatrolMachine
 from navigation.runner import Summary, run_patrol
 from navigation.simulation import SimConfig, Simulation, StartPoseError
@@ -59,13 +60,15 @@ def changed_world(world: World, remove: Sequence[str] = (), shift: Sequence[tupl
 def _start_refused(exc: StartPoseError, pose: Pose2D, occ_map: OccupancyMap, world: World, config: SimConfig,
                    map_path: Path | str, world_path: Path | str) -> str:
     """The simulator's refusal of a start pose, naming the file that puts something there: the world file
-    and its objects on the pose, else the map (off it, or inside one of its obstacles)."""
+    and its objects on the pose, else the map (off it, or inside one of its obstacles), which the simulator's
+    message names already."""
     inside = world.colliding(pose.x, pose.y, config.robot.radius)
     if inside:
         names = ", ".join(repr(name) for name in inside)
         return f"{world_path or world.source}: {names} {'stands' if len(inside) == 1 else 'stand'} on the start " \
                f"pose ({pose.x:.3f}, {pose.y:.3f}): the robot (radius {config.robot.radius:g} m) cannot start there"
-    return f"{map_path or occ_map.source}: {exc}"
+    text = str(exc)
+    return text if occ_map.source is not None else f"{map_path or 'the map'}: {text.removeprefix('the map: ')}"
 
 
 class Inspection:
@@ -74,7 +77,8 @@ class Inspection:
     def __init__(self, mission: Mission, occ_map: OccupancyMap, reference: World, *, map_path: Path | str = "",
                  world_path: Path | str = "", simulated: World | None = None, changes: Sequence[str] = (),
                  config: SimConfig | None = None, start: Pose2D | None = None, laps: int | None = None,
-                 camera: CameraParams | None = None, out_dir: Path | None = None) -> None:
+                 camera: CameraParams | None = None, out_dir: Path | None = None, nav: NavParams | None = None
+                 ) -> None:
         objects = {o.name for o in reference.objects}
         for row in mission.expected:
             for e in row:
@@ -88,6 +92,8 @@ class Inspection:
         station_pose = mission.poses.station
         station = DockingStation.in_front_of(station_pose) if station_pose else None
         config = config or SimConfig()
+        if nav is not None:  # inflation, cost shape, keepout cells and controller settings, before the planner is built
+            config = configure_simulation(config, nav, occ_map)
         try:
             self.sim = Simulation(occ_map, self.sim_start(start, station_pose, goals, mission), config,
                                   station=station, world=self.world)
@@ -98,6 +104,8 @@ class Inspection:
         # It marks within 2.5 m and clears within 3 m, so a scan of that reach with a beam every 0.36 degrees
         # (1.6 cm apart at 2.5 m, a third of a map cell) tells it as much as the full scan, for a fraction of it.
         self.sim.move_base.scan_source = lambda: self.sim.scan(COSTMAP_LASER)
+        #: The keepout and speed zones' picture layer (None: no masks); the speed zones now cap move_base.
+        self.zones = apply_to_simulation(self.sim, nav) if nav is not None else None
         self.camera = RGBDCamera(camera, random_seed=config.seed)
         self.machine = PatrolMachine(
             self.sim, goals, station_pose, max_laps=laps or mission.laps, tasks=mission.tasks,
@@ -131,7 +139,7 @@ class Inspection:
             caption = (f"{self.mission.path.name}: {summary.outcome}  visits {len(self.report.visits)}  "
                        + "  ".join(f"{k.replace('_', ' ')} {n}" for k, n in sorted(counts.items())))
         return draw_inspection(self.map, self.reference, self.sim.world, self.report, self.sim.trajectory,
-                               self.machine.goals, self.sim.collision_points, caption)
+                               self.machine.goals, self.sim.collision_points, caption, zones=self.zones)
 
     def write(self, summary: Summary) -> list[Path]:
         """report.json, report.md and map.png in the output folder."""

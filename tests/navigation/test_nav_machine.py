@@ -11,12 +11,15 @@ import pytest
 
 from navigation.docking import DockingStation
 from navigation.geometry import Pose2D
+from navigation.laptop_monitor import laptop_battery_monitor
 from navigation.maps import OCCUPIED, OccupancyMap
 from navigation.patrol import PatrolMachine, patrol_transitions
 from navigation.runner import run_patrol
 
 MP = "MONITORED_PATROL"
-MP_ENTRY = [MP, f"{MP}.PATROL", f"{MP}.ROBOT_BATTERY_MONITOR", f"{MP}.LAPTOP_BATTERY_MONITOR"]
+MP_ENTRY = [MP, f"{MP}.PATROL", f"{MP}.ROBOT_BATTERY_MONITOR"]
+#: The entry with the laptop's monitor that objrec-patrol adds (navigation.laptop_monitor).
+MP_LAPTOP_ENTRY = [*MP_ENTRY, f"{MP}.LAPTOP_BATTERY_MONITOR"]
 DOCKING = ["DOCK_AT_STATION", "DOCK_AT_STATION.MOVE_TO_STATION", "DOCK_AT_STATION.DOCK"]
 
 
@@ -28,14 +31,22 @@ def results(machine: PatrolMachine) -> list[tuple[str, str]]:
     return [(e["name"], e["status"]) for e in machine.sim.events.of_type("goal_result")]
 
 
-def patrol_prefix(entered: list[str], n_goals: int) -> int:
+def patrol_prefix(entered: list[str], n_goals: int, entry: list[str] = MP_ENTRY) -> int:
     """Check the patrol part (MP entry then POSE_0, POSE_1, ... cyclically); return where it ends."""
-    assert entered[:4] == MP_ENTRY
-    k = 4
+    first = len(entry)
+    assert entered[:first] == entry
+    k = first
     while k < len(entered) and entered[k].startswith(f"{MP}.PATROL.POSE_"):
-        assert entered[k] == pose((k - 4) % n_goals)
+        assert entered[k] == pose((k - first) % n_goals)
         k += 1
     return k
+
+
+def laptop_watched(machine: PatrolMachine) -> PatrolMachine:
+    """The same patrol (same simulation, goals, station, laps) with the laptop's monitor, as objrec-patrol
+    builds it."""
+    return PatrolMachine(machine.sim, machine.goals, machine.station_pose, max_laps=machine.max_laps,
+                         resume_after_charging=machine.resume, monitors=[laptop_battery_monitor()])
 
 
 @pytest.fixture
@@ -56,10 +67,9 @@ def test_normal_lap_visits_every_goal_then_shuts_down(make_patrol, goals):
     assert end.distance_to(goals[2]) <= 0.15
     assert abs(math.remainder(end.yaw - goals[2].yaw, 2 * math.pi)) <= 0.3
     assert machine.sim.robot.v == 0.0 and machine.sim.robot.w == 0.0
-    # Leaving MONITORED_PATROL left all three regions.
+    # Leaving MONITORED_PATROL left both regions.
     exits = [e["state"] for e in machine.sim.events.of_type("state_exit")]
-    assert exits[-5:] == [pose(2), f"{MP}.PATROL", f"{MP}.ROBOT_BATTERY_MONITOR",
-                          f"{MP}.LAPTOP_BATTERY_MONITOR", MP]
+    assert exits[-4:] == [pose(2), f"{MP}.PATROL", f"{MP}.ROBOT_BATTERY_MONITOR", MP]
 
 
 def test_two_laps_wrap_round_to_pose_0(make_patrol, goals):
@@ -93,7 +103,7 @@ def test_robot_battery_low_docks_and_charges(make_patrol, goals):
     machine = make_patrol(goals, robot_battery_percent=28.4)
     summary = run_patrol(machine, handle_sigint=False)
     k = patrol_prefix(machine.entered, len(goals))
-    assert k > 4, "the patrol should have started before the battery ran low"
+    assert k > len(MP_ENTRY), "the patrol should have started before the battery ran low"
     assert machine.entered[k:] == [*DOCKING, "WAIT_UNTIL_CHARGED", "SHUTDOWN"]
     battery = machine.sim.robot_battery
     assert battery.percentage == pytest.approx(100.0)
@@ -149,11 +159,12 @@ def test_docking_fails_when_the_station_cannot_be_reached(make_patrol, goals):
 
 
 def test_laptop_battery_low_shuts_down(make_patrol, goals):
-    machine = make_patrol(goals, laptop_battery_percent=20.3)
+    machine = laptop_watched(make_patrol(goals, laptop_battery_percent=20.3))
     summary = run_patrol(machine, handle_sigint=False)
-    k = patrol_prefix(machine.entered, len(goals))
-    assert k > 4
+    k = patrol_prefix(machine.entered, len(goals), MP_LAPTOP_ENTRY)
+    assert k > len(MP_LAPTOP_ENTRY)
     assert machine.entered[k:] == ["SHUTDOWN"]
+    assert summary.preempt_reason == "laptop battery low (19.9 %, not charging)"
     # 0.3 % at 2.5 h per 100 % is 27 s; the monitor polls once a second.
     low = machine.sim.events.of_type("laptop_battery")
     assert len(low) == 1 and low[0]["t"] == pytest.approx(27.0, abs=0.15)
@@ -163,9 +174,29 @@ def test_laptop_battery_low_shuts_down(make_patrol, goals):
 
 
 def test_laptop_on_mains_never_runs_low(make_patrol, goals):
-    machine = make_patrol(goals, laptop_battery_percent=5.0, laptop_plugged=True, max_laps=1)
+    machine = laptop_watched(make_patrol(goals, laptop_battery_percent=5.0, laptop_plugged=True, max_laps=1))
     run_patrol(machine, handle_sigint=False)
+    assert machine.entered == [*MP_LAPTOP_ENTRY, pose(0), pose(1), pose(2), "SHUTDOWN"]
+
+
+def test_without_the_laptop_monitor_a_low_laptop_ends_nothing(make_patrol, goals):
+    """The machine alone does not know the laptop: a program that does not add the monitor patrols on."""
+    machine = make_patrol(goals, laptop_battery_percent=20.05, max_laps=1)  # below 20 % after 4.5 s
+    summary = run_patrol(machine, handle_sigint=False)
     assert machine.entered == [*MP_ENTRY, pose(0), pose(1), pose(2), "SHUTDOWN"]
+    assert summary.preempt_reason == "" and machine.sim.laptop_battery.percentage < 20.0
+
+
+def test_the_stopped_laptop_monitor_is_no_result(make_patrol, goals):
+    """Docking leaves MONITORED_PATROL: the monitor stops there (task_stop) and starts again in each state it
+    watches in; it never ends as a preempted task."""
+    machine = laptop_watched(make_patrol(goals, robot_battery_percent=28.4))
+    run_patrol(machine, handle_sigint=False, time_limit=120.0)
+    region = f"{MP}.LAPTOP_BATTERY_MONITOR"
+    assert [e["status"] for e in machine.sim.events.of_type("task_result") if e["state"] == region] == []
+    stops = [e["text"] for e in machine.sim.events.of_type("task_stop") if e["state"] == region]
+    starts = [e for e in machine.sim.events.of_type("task_start") if e["state"] == region]
+    assert len(starts) == len(stops) >= 3 and set(stops) == {"state left"}  # MP, DOCK_AT_STATION, WAIT...
 
 
 def test_sigint_preempts_the_patrol_cleanly(make_patrol, goals):
@@ -217,8 +248,9 @@ def test_resume_after_charging_continues_the_interrupted_goal(make_patrol, b5203
     index = int(interrupted.rsplit("_", 1)[1])
     tail = machine.entered[k:]
     assert tail[:6] == [*DOCKING, "WAIT_UNTIL_CHARGED", "UNDOCK", MP]
-    assert tail[6:9] == MP_ENTRY[1:]
-    assert tail[9:] == [pose(i) for i in range(index, len(goals))] + ["SHUTDOWN"]
+    regions = 6 + len(MP_ENTRY) - 1
+    assert tail[6:regions] == MP_ENTRY[1:]
+    assert tail[regions:] == [pose(i) for i in range(index, len(goals))] + ["SHUTDOWN"]
     assert summary.laps == 1 and summary.collisions == 0
     assert summary.goals_reached == len(goals)  # the interrupted goal was driven to after all
     kinds = [e["event"] for e in machine.sim.events.of_type("robot_battery")]
@@ -226,7 +258,7 @@ def test_resume_after_charging_continues_the_interrupted_goal(make_patrol, b5203
 
 
 def test_transitions_are_data_and_cover_every_outcome():
-    table = patrol_transitions(2)
+    table = patrol_transitions(2, monitors=[laptop_battery_monitor()])
     triggers = {(t["trigger"], t["source"]) for t in table}
     assert ("robot_battery_low", f"{MP}.ROBOT_BATTERY_MONITOR") in triggers
     assert ("laptop_battery_low", f"{MP}.LAPTOP_BATTERY_MONITOR") in triggers
@@ -257,3 +289,23 @@ def test_second_sigint_gives_up_at_once():
         with pytest.raises(KeyboardInterrupt):
             os.kill(os.getpid(), signal.SIGINT)
     assert signal.getsignal(signal.SIGINT) is previous
+
+
+@pytest.mark.parametrize("plugged", [False, True])
+def test_objrec_patrol_adds_the_laptop_monitor_unless_plugged(tmp_path, capsys, plugged):
+    """The command watches the laptop (its region drawn, its reason in the summary); --laptop-plugged: no monitor."""
+    from navigation.cli import main
+    from tests.navigation.conftest import DATA
+
+    diagram = tmp_path / "machine.md"
+    argv = [str(DATA / "b5203.txt"), "--map", str(DATA / "b5203.yaml"), "--laptop-battery", "20.3",
+            "--time-limit", "40", "--diagram", str(diagram), "--events", str(tmp_path / "events.jsonl")]
+    assert main(argv + (["--laptop-plugged"] if plugged else [])) == 0
+    out, text = capsys.readouterr().out, diagram.read_text()
+    if plugged:
+        assert "outcome:        shutdown (time limit)" in out
+        assert "LAPTOP" not in text and "LAPTOP" not in (tmp_path / "events.jsonl").read_text()
+    else:
+        assert "outcome:        shutdown (laptop battery low (19.9 %, not charging))" in out
+        assert "MONITORED_PATROL --> SHUTDOWN : laptop_battery_low from LAPTOP_BATTERY_MONITOR" in text
+        assert "WAIT_UNTIL_CHARGED --> SHUTDOWN : robot_battery_empty, laptop_battery_low, charged, preempted" in text

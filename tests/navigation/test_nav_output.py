@@ -12,7 +12,7 @@ from navigation.patrol import patrol_states
 from navigation.render import RunPicture, render_still, save_render
 from navigation.runner import run_patrol
 
-ALL_STATES = ["MONITORED_PATROL", "PATROL", "ROBOT_BATTERY_MONITOR", "LAPTOP_BATTERY_MONITOR", "POSE_0",
+ALL_STATES = ["MONITORED_PATROL", "PATROL", "ROBOT_BATTERY_MONITOR", "POSE_0",
               "POSE_1", "POSE_2", "DOCK_AT_STATION", "MOVE_TO_STATION", "DOCK", "WAIT_UNTIL_CHARGED",
               "UNDOCK", "SHUTDOWN"]
 
@@ -75,7 +75,7 @@ def test_mermaid_has_every_state_and_the_parallel_regions():
     for name in ALL_STATES:
         assert name in text
     assert "state MONITORED_PATROL {" in text and "state PATROL {" in text
-    assert text.count("\n        --\n") == 2  # three concurrent regions inside MONITORED_PATROL
+    assert text.count("\n        --\n") == 1  # two concurrent regions inside MONITORED_PATROL (no added monitor)
     assert "POSE_2 --> POSE_0 : succeeded, aborted" in text
     assert "MONITORED_PATROL --> DOCK_AT_STATION : robot_battery_low [has_station] from ROBOT_BATTERY_MONITOR" in text
     assert "WAIT_UNTIL_CHARGED --> UNDOCK : charged [resume_after_charging]" in text
@@ -85,11 +85,11 @@ def test_mermaid_has_every_state_and_the_parallel_regions():
 
 def test_mermaid_marks_the_active_states(tmp_path):
     active = ["MONITORED_PATROL", "MONITORED_PATROL.PATROL", "MONITORED_PATROL.PATROL.POSE_1",
-              "MONITORED_PATROL.ROBOT_BATTERY_MONITOR", "MONITORED_PATROL.LAPTOP_BATTERY_MONITOR"]
+              "MONITORED_PATROL.ROBOT_BATTERY_MONITOR"]
     text = mermaid(3, active)
     assert "POSE_1 : ACTIVE" in text and "POSE_0 : ACTIVE" not in text
     assert "ROBOT_BATTERY_MONITOR : ACTIVE" in text
-    assert "class LAPTOP_BATTERY_MONITOR,MONITORED_PATROL,PATROL,POSE_1,ROBOT_BATTERY_MONITOR active" in text
+    assert "class MONITORED_PATROL,PATROL,POSE_1,ROBOT_BATTERY_MONITOR active" in text
     raw = write_diagram(tmp_path / "m.mmd", 3, active).read_text()
     assert raw == text
     assert len(patrol_states(3)) == 6

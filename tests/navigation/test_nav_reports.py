@@ -9,7 +9,8 @@ import cv2
 import pytest
 
 from navigation.battery import LaptopBatteryParams, RobotBatteryParams
-from navigation.patrol import OUTSIDE_STATES, patrol_transitions
+from navigation.laptop_monitor import laptop_battery_monitor
+from navigation.patrol import OUTSIDE_STATES, PatrolMachine, patrol_transitions
 from navigation.render import (
     BELIEVED_COLOUR,
     KIDNAP_COLOUR,
@@ -30,8 +31,10 @@ def goals(b5203_poses):
 def test_a_dead_laptop_on_the_dock_ends_the_run_with_that_reason(make_patrol, goals):
     """The robot battery runs low, the robot docks and charges (1.5 h); the laptop, 30 % on a 0.5 h runtime
     and not plugged in, drops below 20 % three minutes in, while the robot waits on the dock."""
-    machine = make_patrol(goals, robot_battery_percent=28.4, laptop_battery_percent=30.0,
-                          laptop_battery=replace(LaptopBatteryParams(), runtime_h=0.5))
+    plain = make_patrol(goals, robot_battery_percent=28.4, laptop_battery_percent=30.0,
+                        laptop_battery=replace(LaptopBatteryParams(), runtime_h=0.5))
+    # with the laptop's monitor, as objrec-patrol adds it
+    machine = PatrolMachine(plain.sim, plain.goals, plain.station_pose, monitors=[laptop_battery_monitor()])
     summary = run_patrol(machine, handle_sigint=False)
     assert machine.entered[-2:] == ["WAIT_UNTIL_CHARGED", "SHUTDOWN"], machine.entered
     assert summary.outcome == "shutdown" and summary.preempt_reason == "laptop battery low (19.9 %, not charging)"
@@ -58,7 +61,7 @@ def test_an_empty_robot_battery_is_named(make_patrol, goals, b5203_poses):
 
 
 def test_monitor_outcomes_lead_out_of_every_state():
-    table = patrol_transitions(2)
+    table = patrol_transitions(2, monitors=[laptop_battery_monitor()])
     laptop = {t["source"] for t in table if t["trigger"] == "laptop_battery_low"}
     empty = {t["source"] for t in table if t["trigger"] == "robot_battery_empty"}
     assert set(OUTSIDE_STATES) <= laptop and set(OUTSIDE_STATES) <= empty

@@ -31,7 +31,7 @@ from navigation.tasks import (
 
 STATION = Pose2D(14.4, 12.8, 0.0)
 MP = "MONITORED_PATROL"
-MP_ENTRY = [MP, f"{MP}.PATROL", f"{MP}.ROBOT_BATTERY_MONITOR", f"{MP}.LAPTOP_BATTERY_MONITOR"]
+MP_ENTRY = [MP, f"{MP}.PATROL", f"{MP}.ROBOT_BATTERY_MONITOR"]
 
 
 def st(name: str) -> str:
@@ -296,7 +296,7 @@ def test_an_added_monitor_runs_beside_the_patrol_and_ends_it(make_patrol, goals)
     deadline = Deadline(12.0)
     machine = make_patrol(goals, monitors=[Monitor(deadline, {"deadline_passed": "SHUTDOWN"})])
     run_patrol(machine, handle_sigint=False)
-    assert machine.entered[:5] == [*MP_ENTRY, f"{MP}.DEADLINE"]
+    assert machine.entered[:len(MP_ENTRY) + 1] == [*MP_ENTRY, f"{MP}.DEADLINE"]
     assert machine.entered[-1] == "SHUTDOWN"
     assert machine.sim.events.of_type("outcome")[0]["t"] == pytest.approx(12.0, abs=0.11)
     result = machine.sim.events.of_type("task_result")[0]

@@ -125,7 +125,7 @@ def test_surf_is_refused_with_its_reason_where_it_is_unavailable():
 
 def test_each_types_own_settings_are_relevant_only_for_that_type():
     detector = FeatureDetector()
-    shared = ["matcher", "ratio_test", "ratio", "cross_check", "min_matches", "homography_method",
+    shared = ["view_tilts", "matcher", "ratio_test", "ratio", "cross_check", "min_matches", "homography_method",
               "reprojection_threshold", "homography_max_iterations", "homography_confidence", "photometric_refinement",
               "min_inliers",
               "min_inlier_coverage", "min_area", "max_area_fraction", "min_corner_angle", "max_instances",

@@ -1,0 +1,435 @@
+"""Segment first, then fit: far and small objects that the hypothesis search leaves behind.
+
+The search draws hypotheses from pairs of points with normals and counts inliers by a fixed threshold that
+mixes distance and normal angle. Beyond about 2 m a depth camera's noise (sigma = 1.5 mm x range^2: 11 mm
+at 2.7 m) is a quarter of a 4 cm radius: the best hypothesis has the right radius but only a fifth of the
+object's points fall within the threshold, and the smoothed normals are bent at the rim and silhouette. The
+object is still there as a *piece of the cloud*: this pass (PCL's classic path) takes the points no object
+has taken, splits them into connected pieces, and fits each piece of a plausible size by its point positions
+alone, each point's error measured along its ray and in units of the depth noise expected at its range:
+
+- pieces: neighbouring cells in (viewing direction, 1 / range), where the sensor's pixels are evenly spaced
+  and its depth noise is the same everywhere (sigma(1/r) = noise at 1 m), so one cell size serves 0.5-5 m;
+  only pieces where ``INLIER_SIGMAS`` of the noise exceed the search's threshold (nearer, the search's own
+  verdict stands) and no wider than an object;
+- a *capped* cylinder (``capped_residuals``): a standing cylinder seen from above shows its top as much as
+  its side, and a side-only fit bends to take the top in. Axes from the piece's normals and its spread, an
+  algebraic circle across each, then a robust least-squares fit of all seven parameters (axis, position,
+  radius, both ends) on the errors along the rays, refit on the points within ``INLIER_SIGMAS``;
+- the verdict is model selection, not a looser threshold: the best cylinder must explain ``MIN_EXPLAINED`` of
+  the piece with errors the size of the noise (``MAX_MEDIAN``), and no rival may cost within
+  ``AMBIGUOUS_COST`` of it (``truncated_cost``): a sphere in the radius range, a cylinder of another radius
+  from another axis, or a box (``box_cost``; boxes are what a far capped cylinder is most often confused
+  with). The detector's own arc, length and inside checks then judge the side's inliers at the noise's
+  threshold; its normal checks do not (far normals turn 0.3-0.75 degrees per degree on real cylinders).
+
+Measured on the fresh table scenes (tests/objrec3d/test_3d_small_far.py): far cylinders found, but a few
+boxes beyond 2 m still pass (a box partly hidden or merged with flying pixels fits no box of ours better):
+hence ``ShapeDetector.segment_noise`` ships 0.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+
+from .fitting import ShapeFit
+from .vec import dot3
+
+log = logging.getLogger(__name__)
+
+#: A point is an inlier within this many sigmas of the depth noise at its range (along its ray).
+INLIER_SIGMAS = 2.5
+#: A fit must explain this share of its piece's points (the rest: flying pixels at the rim, a cylinder's caps).
+MIN_EXPLAINED = 0.5
+#: A fit's median error must stay within this many sigmas (0.67 for pure noise).
+MAX_MEDIAN = 0.9
+#: A rival model whose ``truncated_cost`` is within this of the best makes the piece ambiguous (no object) ...
+AMBIGUOUS_COST = 9.0
+#: ... when its radius differs by more than this share.
+AMBIGUOUS_RADIUS = 0.1
+#: A cylinder's visible side is about as wide as its radius (2 x the spread across the axis: 0.6-1.0 r on
+#: cylinders beyond 1.5 m); a box's edge fitted by a large arc is a narrow strip (0.2-0.35 r).
+MIN_WIDTH = 0.5
+#: Cells of the pieces: this many pixels' worth of viewing angle (``PIXEL_ANGLE``) and this many sigmas of 1/range.
+CELL_PIXELS = 2.5
+CELL_SIGMAS = 3.0
+#: A VGA depth camera's angle per pixel (525 px focal length): the pieces' lateral cell.
+PIXEL_ANGLE = 1.0 / 525.0
+#: Rounds of the robust fits (refit on the inliers of the last fit).
+ROUNDS = 4
+
+
+@dataclass(frozen=True)
+class ClusterSettings:
+    """What the pass looks for: the radius range, the depth noise at 1 m, the sensor, the fewest inliers."""
+
+    noise: float
+    min_radius: float
+    max_radius: float
+    min_inliers: int
+    sensor: np.ndarray
+    #: The search's distance threshold: pieces where the noise is within it are left alone.
+    threshold: float
+
+
+def depth_sigma(points: np.ndarray, sensor: np.ndarray, noise: float) -> np.ndarray:
+    """The depth noise (sigma, metres) at each point's range: ``noise`` x range^2."""
+    rel = points - sensor
+    return noise * np.einsum("ij,ij->i", rel, rel)
+
+
+def pieces(points: np.ndarray, sensor: np.ndarray, noise: float) -> list[np.ndarray]:
+    """Indices of the connected pieces of ``points``: neighbouring cells in (direction, 1 / range)."""
+    if points.shape[0] == 0:
+        return []
+    from scipy.sparse import coo_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    rel = points - sensor
+    rng = np.maximum(np.linalg.norm(rel, axis=1), 1e-9)
+    coords = np.concatenate([rel / rng[:, None] / (CELL_PIXELS * PIXEL_ANGLE),
+                             (1.0 / rng / (CELL_SIGMAS * max(noise, 1e-6)))[:, None]], axis=1)
+    keys = np.floor(coords).astype(np.int64)
+    keys -= keys.min(axis=0) - 1
+    span = keys.max(axis=0) + 2
+    flat = np.zeros(keys.shape[0], dtype=np.int64)
+    for d in range(4):
+        flat = flat * span[d] + keys[:, d]
+    cells, inverse = np.unique(flat, return_inverse=True)
+    inverse = inverse.reshape(-1)
+    strides = np.array([span[1] * span[2] * span[3], span[2] * span[3], span[3], 1], dtype=np.int64)
+    rows, cols = [], []
+    for offset in np.array(np.meshgrid(*[(-1, 0, 1)] * 4, indexing="ij")).reshape(4, -1).T:
+        shift = int(offset @ strides)
+        if shift <= 0:
+            continue  # each neighbour pair once
+        at = np.searchsorted(cells, cells + shift)
+        at[at == cells.size] = 0
+        hit = cells[at] == cells + shift
+        rows.append(np.flatnonzero(hit))
+        cols.append(at[hit])
+    row, col = np.concatenate(rows), np.concatenate(cols)
+    graph = coo_matrix((np.ones(row.size, dtype=np.int8), (row, col)), shape=(cells.size, cells.size))
+    _, label = connected_components(graph, directed=False)
+    point_label = label[inverse]
+    order = np.argsort(point_label, kind="stable")
+    bounds = np.flatnonzero(np.diff(point_label[order])) + 1
+    return np.split(order, bounds)
+
+
+def _unit(v: np.ndarray) -> np.ndarray:
+    return v / np.linalg.norm(v, axis=-1, keepdims=True)
+
+
+def _basis(axis: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    u = np.cross(axis, [1.0, 0.0, 0.0] if abs(axis[0]) < 0.9 else [0.0, 1.0, 0.0])
+    u /= np.linalg.norm(u)
+    return u, np.cross(axis, u)
+
+
+#: A ray that misses the surface errs sideways, where a depth camera is precise: such an error weighs this much
+#: more than the same error along the ray.
+SIDEWAYS_WEIGHT = 4.0
+
+
+def front_residuals(pts: np.ndarray, rays: np.ndarray, center: np.ndarray, radius: float) -> np.ndarray:
+    """How far each point lies along its ray from where the ray *enters* the circle (2D) or sphere (3D):
+    positive behind the surface. Only the side facing the camera is visible, so a point is never explained by
+    the far crossing (that lets a small circle absorb the noisy points near the silhouette). ``rays`` may be
+    shorter than unit (a 3D ray seen in a cylinder's cross-section); a ray that misses: its sideways miss,
+    weighted."""
+    rel = pts - center
+    a = np.maximum(np.einsum("ij,ij->i", rays, rays), 1e-12)
+    b = np.einsum("ij,ij->i", rays, rel)
+    q = np.einsum("ij,ij->i", rel, rel)
+    disc = b * b - a * (q - radius * radius)
+    enter = (-b - np.sqrt(np.maximum(disc, 0.0))) / a
+    miss = np.sqrt(np.maximum(q - b * b / a, 0.0)) - radius
+    return np.where(disc >= 0.0, -enter, SIDEWAYS_WEIGHT * miss)
+
+
+def _algebraic(pts: np.ndarray) -> tuple[np.ndarray, float] | None:
+    """Circle (2D) or sphere (3D) by linear least squares: |p|^2 = 2 c.p + d (Kasa)."""
+    design = np.concatenate([2.0 * pts, np.ones((pts.shape[0], 1))], axis=1)
+    try:
+        solution, *_ = np.linalg.lstsq(design, np.einsum("ij,ij->i", pts, pts), rcond=None)
+    except np.linalg.LinAlgError:
+        return None
+    center = solution[:-1]
+    squared = solution[-1] + center @ center
+    return (center, math.sqrt(squared)) if squared > 0 else None
+
+
+def fit_sphere(pts: np.ndarray, rays: np.ndarray, sigma: np.ndarray) -> tuple[np.ndarray, float, np.ndarray] | None:
+    """A sphere by its points' errors along their rays (``front_residuals``): algebraic start, robust least
+    squares refit on the inliers. Centre, radius, and each point's error in sigmas."""
+    from scipy.optimize import least_squares
+
+    start = _algebraic(pts)
+    if start is None:
+        return None
+    x = np.append(start[0], start[1])
+    keep = np.ones(pts.shape[0], dtype=bool)
+    for _ in range(ROUNDS):
+        if keep.sum() < 8:
+            return None
+
+        def weighted(x: np.ndarray, keep: np.ndarray = keep) -> np.ndarray:
+            return front_residuals(pts[keep], rays[keep], x[:3], x[3]) / sigma[keep]
+
+        try:
+            x = least_squares(weighted, x, loss="soft_l1", f_scale=1.0, max_nfev=60).x
+        except (ValueError, np.linalg.LinAlgError):
+            return None
+        if not np.isfinite(x).all() or x[3] <= 0:
+            return None
+        keep = np.abs(front_residuals(pts, rays, x[:3], x[3])) < INLIER_SIGMAS * sigma
+    return x[:3], float(x[3]), front_residuals(pts, rays, x[:3], x[3]) / sigma
+
+
+def capped_residuals(pts: np.ndarray, rays: np.ndarray, sensor: np.ndarray, axis: np.ndarray, center: np.ndarray,
+                     radius: float, low: float, high: float) -> tuple[np.ndarray, np.ndarray]:
+    """How far each point lies along its ray (unit, from ``sensor``) behind where the ray enters a capped
+    cylinder (its side between ``low`` and ``high`` along the axis from ``center``, and its flat ends): a
+    standing cylinder seen from above shows its top as much as its side, and a fit of the side alone bends to
+    take the top in. A ray that misses: the point's distance to the solid, weighted (``SIDEWAYS_WEIGHT``).
+    Also whether each ray enters through the side (not an end)."""
+    o = sensor - center
+    along_o, along_d = float(o @ axis), dot3(rays, axis)
+    o_across = o - along_o * axis
+    d_across = rays - along_d[:, None] * axis
+    a = np.maximum(np.einsum("ij,ij->i", d_across, d_across), 1e-12)
+    b = d_across @ o_across
+    c = o_across @ o_across - radius * radius
+    disc = b * b - a * c
+    root = np.sqrt(np.maximum(disc, 0.0))
+    side_in, side_out = (-b - root) / a, (-b + root) / a
+    parallel = np.abs(along_d) < 1e-9
+    safe = np.where(parallel, 1.0, along_d)
+    t_low, t_high = (low - along_o) / safe, (high - along_o) / safe
+    inside_slab = low <= along_o <= high
+    slab_in = np.where(parallel, -np.inf if inside_slab else np.inf, np.minimum(t_low, t_high))
+    slab_out = np.where(parallel, np.inf if inside_slab else -np.inf, np.maximum(t_low, t_high))
+    enter = np.maximum(side_in, slab_in)
+    hit = (disc >= 0.0) & (enter <= np.minimum(side_out, slab_out)) & np.isfinite(enter)
+    rel = pts - center
+    along = dot3(rel, axis)
+    radial = np.linalg.norm(rel - along[:, None] * axis, axis=1) - radius
+    axial = np.maximum(low - along, along - high)
+    miss = np.hypot(np.maximum(radial, 0.0), np.maximum(axial, 0.0))
+    depth = np.linalg.norm(pts - sensor, axis=1)
+    residual = np.where(hit, depth - np.where(hit, enter, 0.0), SIDEWAYS_WEIGHT * miss)
+    return residual, hit & (side_in >= slab_in)
+
+
+def _capped(x: np.ndarray, base: np.ndarray, axis0: np.ndarray, u: np.ndarray, v: np.ndarray
+            ) -> tuple[np.ndarray, np.ndarray, float, float, float]:
+    """The capped cylinder x = (axis tilt along u, v; centre offset along u, v; radius; ends along the axis)."""
+    return _unit(axis0 + x[0] * u + x[1] * v), base + x[2] * u + x[3] * v, float(x[4]), float(x[5]), float(x[6])
+
+
+def fit_cylinder(pts: np.ndarray, rays: np.ndarray, sigma: np.ndarray, axis0: np.ndarray, sensor: np.ndarray
+                 ) -> tuple[np.ndarray, np.ndarray, float, np.ndarray, np.ndarray] | None:
+    """A capped cylinder near ``axis0`` by its points' errors along their rays (``capped_residuals``; robust
+    least squares of all seven parameters, refit on the inliers). The centre (mid-way between the ends),
+    axis, radius, each point's error in sigmas, and which points lie on the side."""
+    from scipy.optimize import least_squares
+
+    u, v = _basis(axis0)
+    base = pts.mean(axis=0)
+    rel = pts - base
+    start = _algebraic(np.stack([dot3(rel, u), dot3(rel, v)], axis=1))
+    if start is None:
+        return None
+    (cu, cv), radius = start
+    along = dot3(rel, axis0)
+    x = np.array([0.0, 0.0, cu, cv, radius, *np.percentile(along, [1.0, 99.0])])
+    keep = np.ones(pts.shape[0], dtype=bool)
+    for _ in range(ROUNDS):
+        if keep.sum() < 12:
+            return None
+
+        def weighted(x: np.ndarray, keep: np.ndarray = keep) -> np.ndarray:
+            return capped_residuals(pts[keep], rays[keep], sensor, *_capped(x, base, axis0, u, v))[0] / sigma[keep]
+
+        try:
+            x = least_squares(weighted, x, loss="soft_l1", f_scale=1.0, max_nfev=80).x
+        except (ValueError, np.linalg.LinAlgError):
+            return None
+        if not np.isfinite(x).all() or x[4] <= 0:
+            return None
+        residual, _ = capped_residuals(pts, rays, sensor, *_capped(x, base, axis0, u, v))
+        keep = np.abs(residual) < INLIER_SIGMAS * sigma
+    axis, center, radius, low, high = _capped(x, base, axis0, u, v)
+    residual, side = capped_residuals(pts, rays, sensor, axis, center, radius, low, high)
+    return center + 0.5 * (low + high) * axis, axis, radius, residual / sigma, side
+
+
+def axis_candidates(pts: np.ndarray, nrm: np.ndarray) -> list[np.ndarray]:
+    """Where a piece's cylinder axis may point: the direction its normals are all perpendicular to, and its
+    longest and shortest spreads (a long cylinder lies along its points; a short one seen end on across)."""
+    _, by_normals = np.linalg.eigh(np.einsum("ni,nj->ij", nrm, nrm))
+    rel = pts - pts.mean(axis=0)
+    _, by_spread = np.linalg.eigh(np.einsum("ni,nj->ij", rel, rel))
+    out: list[np.ndarray] = []
+    for axis in (by_normals[:, 0], by_spread[:, 2], by_spread[:, 0]):
+        if all(abs(axis @ other) < math.cos(math.radians(10.0)) for other in out):
+            out.append(axis)
+    return out
+
+
+def truncated_cost(error: np.ndarray) -> float:
+    """The sum of squared errors (in sigmas), each capped at ``INLIER_SIGMAS`` squared: minus twice the log
+    likelihood of the fit under Gaussian depth noise with a uniform share of outliers (MSAC's cost)."""
+    return float(np.minimum(error * error, INLIER_SIGMAS**2).sum())
+
+
+def box_residuals(pts: np.ndarray, rays: np.ndarray, sensor: np.ndarray, frame: np.ndarray, center: np.ndarray,
+                  half: np.ndarray) -> np.ndarray:
+    """How far each point lies along its ray behind where the ray enters a box (``frame``'s columns its
+    axes, ``half`` its half sizes); a ray that misses: the point's distance to the box, weighted."""
+    o = (sensor - center) @ frame
+    d = rays @ frame
+    safe = np.where(np.abs(d) < 1e-9, 1e-9, d)
+    t1, t2 = (-half - o) / safe, (half - o) / safe
+    enter = np.minimum(t1, t2).max(axis=1)
+    leave = np.maximum(t1, t2).min(axis=1)
+    hit = enter <= leave
+    local = (pts - center) @ frame
+    miss = np.linalg.norm(np.maximum(np.abs(local) - half, 0.0), axis=1)
+    depth = np.linalg.norm(pts - sensor, axis=1)
+    return np.where(hit, depth - enter, SIDEWAYS_WEIGHT * miss)
+
+
+def _rotation(vector: np.ndarray) -> np.ndarray:
+    """The rotation by ``vector`` (axis times angle, radians): Rodrigues' formula."""
+    angle = float(np.linalg.norm(vector))
+    if angle < 1e-12:
+        return np.eye(3)
+    k = vector / angle
+    skew = np.array([[0.0, -k[2], k[1]], [k[2], 0.0, -k[0]], [-k[1], k[0], 0.0]])
+    return np.eye(3) + math.sin(angle) * skew + (1.0 - math.cos(angle)) * skew @ skew
+
+
+def box_cost(pts: np.ndarray, rays: np.ndarray, sigma: np.ndarray, up: np.ndarray, sensor: np.ndarray) -> float:
+    """The ``truncated_cost`` of the box that explains a piece best, its axes started from ``up`` (a
+    cylinder's axis) and the piece's spread across it: the rival that tells a box from a capped cylinder."""
+    from scipy.optimize import least_squares
+
+    centroid = pts.mean(axis=0)
+    rel = pts - centroid
+    across = rel - dot3(rel, up)[:, None] * up
+    _, vectors = np.linalg.eigh(np.einsum("ni,nj->ij", across, across))
+    first = vectors[:, 2] - (vectors[:, 2] @ up) * up
+    first /= np.linalg.norm(first)
+    frame0 = np.stack([first, np.cross(up, first), up], axis=1)
+    local = rel @ frame0
+    half0 = np.maximum(0.5 * (np.percentile(local, 99, axis=0) - np.percentile(local, 1, axis=0)), 0.005)
+    x = np.concatenate([np.zeros(3), centroid, half0])
+
+    def weighted(x: np.ndarray) -> np.ndarray:
+        frame = _rotation(x[:3]) @ frame0
+        return box_residuals(pts, rays, sensor, frame, x[3:6], np.abs(x[6:])) / sigma
+
+    try:
+        x = least_squares(weighted, x, loss="soft_l1", f_scale=1.0, max_nfev=120).x
+    except (ValueError, np.linalg.LinAlgError):
+        return math.inf
+    return truncated_cost(weighted(x))
+
+
+def fit_piece(pts: np.ndarray, nrm: np.ndarray, settings: ClusterSettings) -> ShapeFit | None:
+    """The cylinder that explains a piece, its inliers indexing ``pts``; None when none does unambiguously:
+    fewer than ``MIN_EXPLAINED`` of the piece within ``INLIER_SIGMAS``, errors wider than the noise
+    (``MAX_MEDIAN``), a rival that costs less than ``AMBIGUOUS_COST`` more (a sphere in the radius range, or a
+    cylinder from another axis with another radius), or a piece narrower than the cylinder it would be
+    (``MIN_WIDTH``: a box's edge)."""
+    rays = _unit(pts - settings.sensor)
+    sigma = np.maximum(depth_sigma(pts, settings.sensor, settings.noise), 1e-4)
+    fits: list[tuple[float, ShapeFit]] = []
+    sides: dict[int, np.ndarray] = {}  # per fit: its inliers on the side (not an end)
+    for axis0 in axis_candidates(pts, nrm):
+        cylinder = fit_cylinder(pts, rays, sigma, axis0, settings.sensor)
+        if cylinder is None:
+            continue
+        error = np.abs(cylinder[3])
+        fit = ShapeFit("cylinder", cylinder[0], cylinder[1], cylinder[2], np.flatnonzero(error < INLIER_SIGMAS),
+                       float(np.median(error)))
+        sides[id(fit)] = np.flatnonzero((error < INLIER_SIGMAS) & cylinder[4])
+        fits.append((truncated_cost(error), fit))
+    if not fits:
+        return None
+    fits.sort(key=lambda f: f[0])
+    cost, best = fits[0]
+    share = best.inliers.size / pts.shape[0]
+    if not settings.min_radius <= best.radius <= settings.max_radius:
+        log.debug("piece of %d: radius %.4f out of range", pts.shape[0], best.radius)
+        return None
+    if share < MIN_EXPLAINED or best.cost > MAX_MEDIAN or best.inliers.size < settings.min_inliers:
+        log.debug("piece of %d: r=%.4f explains %.2f, median %.2f sigmas", pts.shape[0], best.radius, share,
+                  best.cost)
+        return None
+    if any(other < cost + AMBIGUOUS_COST and abs(fit.radius - best.radius) > AMBIGUOUS_RADIUS * best.radius
+           for other, fit in fits[1:]):
+        log.debug("piece of %d: r=%.4f ambiguous: %s", pts.shape[0], best.radius,
+                  [(round(f.radius, 4), round(c - cost, 1)) for c, f in fits])
+        return None
+    rel = pts - pts.mean(axis=0)
+    rel -= dot3(rel, best.axis)[:, None] * best.axis
+    width = 2.0 * float(np.sqrt(np.linalg.eigvalsh(np.einsum("ni,nj->ij", rel, rel))[-1] / pts.shape[0]))
+    if width < MIN_WIDTH * best.radius:
+        log.debug("piece of %d: r=%.4f but %.3f m wide", pts.shape[0], best.radius, width)
+        return None
+    sphere = fit_sphere(pts, rays, sigma)
+    sphere_cost = math.inf if sphere is None else truncated_cost(sphere[2])
+    if sphere is not None and settings.min_radius <= sphere[1] <= settings.max_radius and (
+            sphere_cost < cost + AMBIGUOUS_COST):
+        log.debug("piece of %d: r=%.4f, but a sphere r=%.4f costs %.1f more", pts.shape[0], best.radius, sphere[1],
+                  truncated_cost(sphere[2]) - cost)
+        return None
+    boxed = min(box_cost(pts, rays, sigma, up, settings.sensor) for up in [best.axis, *axis_candidates(pts, nrm)])
+    if boxed < cost + AMBIGUOUS_COST:
+        log.debug("piece of %d: r=%.4f, but a box costs %.1f more", pts.shape[0], best.radius, boxed - cost)
+        return None
+    best.inliers = sides[id(best)]  # what the detector's checks look at: the side, not the ends
+    log.debug("piece of %d: r=%.4f explains %.2f, median %.2f; box +%.1f, sphere +%.1f, cylinders %s", pts.shape[0],
+              best.radius, share, best.cost, boxed - cost, sphere_cost - cost,
+              [(round(f.radius, 4), round(c - cost, 1)) for c, f in fits[1:]])
+    return best
+
+
+def cluster_fits(points: np.ndarray, normals: np.ndarray, free: np.ndarray, settings: ClusterSettings,
+                 judge: Callable[[ShapeFit, float], str | None]) -> list[ShapeFit]:
+    """The cylinder fits of the pieces of the ``free`` points (a mask over ``points``) that lie where the
+    depth noise exceeds the search's threshold and that ``judge`` accepts (given the fit, its inliers indexing
+    ``points``, and the threshold of the noise at its range), most inliers first."""
+    index = np.flatnonzero(free)
+    out: list[ShapeFit] = []
+    for piece in pieces(points[index], settings.sensor, settings.noise):
+        if piece.size < settings.min_inliers:
+            continue
+        chosen = index[piece]
+        pts = points[chosen]
+        middle = pts.mean(axis=0)
+        at = INLIER_SIGMAS * float(depth_sigma(middle[None], settings.sensor, settings.noise)[0])
+        if at < settings.threshold:
+            continue  # the search's own threshold holds there: what it left is no object
+        rel = pts - middle
+        extent = np.sqrt(np.linalg.eigvalsh(np.einsum("ni,nj->ij", rel, rel)) / pts.shape[0])
+        if 2.0 * extent[1] > 2.0 * settings.max_radius:  # a piece wider than any object: a wall, a merge
+            continue
+        fit = fit_piece(pts, normals[chosen], settings)
+        if fit is None:
+            continue
+        fit.inliers = chosen[fit.inliers]
+        verdict = judge(fit, at)
+        log.debug("piece of %d: cylinder r=%.4f: %s", pts.shape[0], fit.radius, verdict or "accepted")
+        if verdict is None:
+            out.append(fit)
+    out.sort(key=lambda f: -f.inliers.size)
+    return out
