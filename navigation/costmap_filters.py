@@ -36,6 +36,16 @@ SPEED_LIMIT_TYPES = ("percent", "absolute")
 SAMPLE_BAND_CELLS = 1 << 18
 
 
+def box_mask(size: tuple[float, float], resolution: float, box: tuple[float, float, float, float],
+             value: int) -> OccupancyMap:
+    """A mask of ``size`` (metres, origin at 0, 0) holding ``value`` inside ``box`` (x0, y0, x1, y1 in metres)
+    and 0 elsewhere: how the exercises' keepout and speed masks are drawn, ready for ``maps.save_map``."""
+    data = np.zeros((round(size[1] / resolution), round(size[0] / resolution)), np.int8)
+    x0, y0, x1, y1 = (round(v / resolution) for v in box)
+    data[y0:y1, x0:x1] = value
+    return OccupancyMap(data, resolution, Pose2D(0.0, 0.0, 0.0))
+
+
 def sample_mask(mask: OccupancyMap, target: OccupancyMap) -> np.ndarray:
     """The mask's value at the centre of every cell of ``target`` (its shape, row 0 at the bottom); unknown
     where the mask does not reach. Done a band of rows at a time, so a map at the cell limit costs the result

@@ -131,12 +131,7 @@ class DetectedObject2D:
         polygon = _new_object(Polygon)
         polygon._points = None
         polygon._xy = xy if hasattr(xy, "tolist") else [list(v) for v in xy]
-        obj = _new_object(cls)
-        fields = obj.__dict__
-        fields["name"] = name
-        fields["polygon"] = polygon
-        fields["truncated"] = truncated
-        return obj
+        return cls.fast(name, polygon, truncated)
 
     def to_dict(self) -> dict[str, Any]:
         data: dict[str, Any] = {"name": self.name, "polygon": self.polygon.to_dict()}

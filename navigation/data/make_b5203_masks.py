@@ -12,10 +12,8 @@ from __future__ import annotations
 import logging
 from pathlib import Path
 
-import numpy as np
-
-from navigation.geometry import Pose2D
-from navigation.maps import OCCUPIED, OccupancyMap, save_map
+from navigation.costmap_filters import box_mask
+from navigation.maps import OCCUPIED, save_map
 
 RESOLUTION = 0.1
 SIZE = (28.8, 25.6)
@@ -39,17 +37,11 @@ filters:
 """
 
 
-def _mask(box: tuple[float, float, float, float], value: int) -> OccupancyMap:
-    data = np.zeros((round(SIZE[1] / RESOLUTION), round(SIZE[0] / RESOLUTION)), np.int8)
-    x0, y0, x1, y1 = (round(v / RESOLUTION) for v in box)
-    data[y0:y1, x0:x1] = value
-    return OccupancyMap(data, RESOLUTION, Pose2D(0.0, 0.0, 0.0))
-
-
 def main() -> None:
     here = Path(__file__).parent
-    save_map(_mask(KEEPOUT, OCCUPIED), here / "b5203_keepout.yaml", image_format="pgm")
-    save_map(_mask(SPEED_ZONE, SPEED_VALUE), here / "b5203_speed.yaml", image_format="png", mode="scale")
+    save_map(box_mask(SIZE, RESOLUTION, KEEPOUT, OCCUPIED), here / "b5203_keepout.yaml", image_format="pgm")
+    save_map(box_mask(SIZE, RESOLUTION, SPEED_ZONE, SPEED_VALUE), here / "b5203_speed.yaml", image_format="png",
+             mode="scale")
     (here / "b5203_nav.yaml").write_text(PARAMS, encoding="utf-8")
     logging.getLogger(__name__).info("wrote the B5.2.03 masks and parameters in %s", here)
 
