@@ -8,13 +8,13 @@ Targets (issues 6 and 26): at least 25 frames displayed per second; a parameter 
 100 ms. A frame counts as displayed when every stage view has painted it. The offscreen platform paints into
 memory with the same raster engine a desktop uses, without the compositor.
 
-The 3D view (issue 26: at least 30 frames/s turning a 307,200-point cloud at 800x600 on a 2-core machine
+The 3D view (at least 30 frames/s turning a 307,200-point cloud at 800x600 on a 2-core machine
 without a GPU) is measured with both renderers, whole and with the level of detail used while the camera
 moves: the software renderer in this process (offscreen) and, in children under ``xvfb-run -a`` (X11 with
 Mesa, as a laptop without a GPU), the software renderer, the OpenGL view, and the one the window chooses
 there (render_path.py). ``--view3d-only gl|software|chosen`` is the child's mode.
 
-The 3D latency (issue 26: a first result within 200 ms of a parameter change) is measured with the shipped
+The 3D latency (a first result within 200 ms of a parameter change) is measured with the shipped
 shape system on PCL's mug scan (/work/shared/data/clouds/table_scene_mug_stereo_textured.pcd; skipped when
 absent): the time to the coarse preview on screen and to the full result.
 """
@@ -46,7 +46,7 @@ from objrec_apps.gui import DefinitionGUI
 from objrec_core import Frame, FrameSource
 
 SIZE = (1600, 1000)  # room for four 640x480 views at about 0.75 scale
-#: The real scan of issue 26 (PCL's tutorial data; /work/shared/data/README.md), not shipped with objrec.
+#: The real scan (PCL's tutorial data; /work/shared/data/README.md), not shipped with objrec.
 MUG = Path(__file__).resolve().parents[1].parent / "shared" / "data" / "clouds" / "table_scene_mug_stereo_textured.pcd"
 
 

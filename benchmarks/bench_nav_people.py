@@ -1,4 +1,4 @@
-"""People in corridors: collisions per 20 goals and how every goal ended, over seeds (issue 25).
+"""People in corridors: collisions per 20 goals and how every goal ended, over seeds.
 
     .venv/bin/python benchmarks/bench_nav_people.py [--seeds 0-9] [--goals 20] [--walkers 2]
         [--avoid stop,sidestep] [--localization exact,amcl] [--recoveries default,patient] [--willow]

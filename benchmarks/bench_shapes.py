@@ -8,7 +8,7 @@ spared the segmentation ShapeDetector does. Success: centre 5 mm (across the axi
 3 mm, axis 2 degrees. Times are reported with a same-run baseline, Open3D's k = 50 normal estimation on the
 same points, so that figures from different machines compare.
 
-The several-shape figure of issue 24 is ``objrec3d_ratio``: the median over scenes of the detector's time
+The several-shape figure is ``objrec3d_ratio``: the median over scenes of the detector's time
 (cylinder+sphere, max_objects 6) over Open3D's k=50 normal estimation on the same points (both wall-clock
 in this process, Open3D with its own threads), and ``objrec3d_cpu_ratio`` the same in CPU time of the process.
 ``--no-peers`` skips pyransac3d (seconds per object), for the ratio alone.

@@ -2,7 +2,7 @@
 
 The tasks of a visit share its frames (a ``detect`` after a ``look_around`` runs on every heading's frame), so
 they must be kept until the visit ends; a 640x480 RGB-D frame is some 2 MB, and 2,000 look_around headings or
-500 photo tasks at one pose passed 2.5 GB when they were kept in memory (issue 27). Each frame is written to
+500 photo tasks at one pose passed 2.5 GB when they were kept in memory. Each frame is written to
 a private temporary folder (mode 0700) as it is taken and read back, one at a time, by whoever asks for it; the
 folder is removed when the visit ends, or at the latest when the process exits.
 """

@@ -500,7 +500,7 @@ def _world(document: Document) -> World:
 
 
 #: The long side a poster is kept at: the camera draws 640x480 frames, so a poster filling the view shows at most
-#: some 640 of its pixels across; 1024 keeps every poster at most 3 MB however large its file (issue 27: eight
+#: some 640 of its pixels across; 1024 keeps every poster at most 3 MB however large its file (eight
 #: posters at the image pixel limit took 2.5 GB).
 POSTER_SIDE = 1024
 

@@ -318,7 +318,7 @@ def shape_scene(rng: np.random.Generator, distance: float, *, cylinders: int = 2
     Returns the cloud, the truth and, per point, the index of the truth shape it shows (-1: table or nothing),
     so a test can count each object's visible points after any filter. Nothing lies beyond the table.
 
-    ``hard``: as a robot's camera sees a table (issue 24): depth noise 1.5 mm x z^2, flying pixels (half of
+    ``hard``: as a robot's camera sees a table: depth noise 1.5 mm x z^2, flying pixels (half of
     the pixels at a depth jump return a depth between the object and what is behind it; labelled -1), every
     other cylinder lying on the table (axis along it, pointing away from the camera within 25 degrees) and
     one or two boxes nearer the camera (clutter, not in the truth). The same ``rng`` gives the same scene;

@@ -295,7 +295,7 @@ def ransac_shape(
     best_cost, best = math.inf, None
     done, needed = 0, math.inf
     while done < min(needed, settings.max_iterations):
-        # Tried for speed and dropped (issue 24): a first batch of 128 and last batches only as large as the
+        # Tried for speed and dropped: a first batch of 128 and last batches only as large as the
         # draws still needed, and a stopping rule that counts the second point drawn from the first's cell
         # (needing a third of the draws on clutter). Each saved milliseconds a search, and each let a box face
         # or a flat patch through as a cylinder on the hard and fresh scenes (test_3d_hard_demo.py,

@@ -1,7 +1,7 @@
 """Before objrec-batch hands its sources to ``--scheduler ADDRESS``: is a Dask scheduler there, answering, and
 the user's own?
 
-Dask's client waits long and says little where the address is wrong (issue 27): an unreachable host took
+Dask's client waits long and says little where the address is wrong: an unreachable host took
 10.9 s to say so, a server that accepts and never answers hung past a minute, one that speaks another
 protocol ended in "Unable to allocate 3.07 EiB" (its first bytes read as a frame length) and a traceback. A
 plain socket answers each in at most the deadline: the connection (refused at once, or no answer), then the

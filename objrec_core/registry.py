@@ -194,7 +194,7 @@ def _of_kind(kind: str | None) -> Callable[[str], bool] | None:
 
 
 #: Source plug-ins that cannot be loaded, by name, and why. Every listing of sources meets them, so a warning
-#: there put a line before every error of a command (issue 27); they are named in the error of a spec no source
+#: there put a line before every error of a command; they are named in the error of a spec no source
 #: takes instead (the one place where a missing source matters), and logged at INFO (``--verbose``).
 _BROKEN_SOURCES: dict[str, str] = {}
 

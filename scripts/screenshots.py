@@ -5,7 +5,7 @@
 
 Every picture is made the way a user would get there (Pipeline menu, panels, a mouse selection), paused on
 fixed demo frames so the pictures are the same on every run. The window is 1280x800, a common laptop's
-screen (issue 26): what the pictures show fits there. They are saved as 256-colour PNGs where Pillow is
+screen: what the pictures show fits there. They are saved as 256-colour PNGs where Pillow is
 installed (a third of the size).
 """
 
@@ -235,7 +235,7 @@ def mug(app: QApplication, settings: QSettings, out: Path) -> None:
 
 def mug_preview(app: QApplication, settings: QSettings, out: Path) -> None:
     """The shipped shape system tuned on the mug scan: the coarse preview of a change on screen, before the full
-    result replaces it (issue 26)."""
+    result replaces it."""
     if not MUG.is_file():
         print(f"skipped define_mug_preview.png: {MUG} is absent", file=sys.stderr)
         return

@@ -1,7 +1,7 @@
 """The strict YAML dialect built straight from libyaml's events: the fast path of :mod:`strictio.yaml_reader`.
 
-PyYAML's pure-Python scanner and parser take 13-47 s and up to 740 MB for a 1-2 MB file near the node limit
-(issue 27); composing through the C loader (``yaml.CSafeLoader``) still keeps a node object with two marks per
+PyYAML's pure-Python scanner and parser take 13-47 s and up to 740 MB for a 1-2 MB file near the node limit;
+composing through the C loader (``yaml.CSafeLoader``) still keeps a node object with two marks per
 value (300 MB for a million). This builder reads the C parser's events one at a time and builds the data as
 they come, with the same checks as the pure-Python loader (no aliases, no duplicate keys, nesting and node
 limits, the line of every key and list item) and the same scalar values (SafeConstructor's own constructors

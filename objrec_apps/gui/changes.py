@@ -122,7 +122,7 @@ class ChangeTracker(QObject):
 
     def _clean_changed(self, clean: bool) -> None:
         # A stack with steps left emits cleanChanged from its own destructor (it clears itself): by then the
-        # window is being torn down and asking anything of the stack raises (issue 26 item 6: a traceback
+        # window is being torn down and asking anything of the stack raises (a traceback
         # after Quit, Discard). A stack that is going away has no state to report.
         if shiboken6.isValid(self.stack) and shiboken6.isValid(self):
             self.modifiedChanged.emit(not clean)
@@ -164,7 +164,7 @@ class ChangeTracker(QObject):
     def before_save(self, shipped: bool = False) -> None:
         """Bring a description that follows the values up to date (no undo step: the save makes it). A
         system started from a shipped file (``shipped``) and tuned no longer is what the shipped description
-        says (issue 26 item 14): unless the user wrote their own, the saved one is made from the values."""
+        says: unless the user wrote their own, the saved one is made from the values."""
         if not self.system.modules:
             return
         stale = shipped and self.system.description == self._opened_description and self.tuned()
@@ -200,7 +200,7 @@ class ChangeTracker(QObject):
         for button, text in ((QMessageBox.StandardButton.Save, "&Save"), (QMessageBox.StandardButton.Discard,
                                                                          "&Discard"),
                              (QMessageBox.StandardButton.Cancel, "&Cancel")):
-            box.button(button).setText(text)  # mnemonics: Alt+S, Alt+D, Alt+C (issue 26 item 14)
+            box.button(button).setText(text)  # mnemonics: Alt+S, Alt+D, Alt+C
         answer = box.exec()
         if answer == QMessageBox.StandardButton.Save:
             return Answer.SAVE

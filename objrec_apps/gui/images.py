@@ -78,8 +78,8 @@ def display_buffer(image: np.ndarray, size: tuple[int, int]) -> np.ndarray:
     return cv2.cvtColor(array, code)
 
 
-#: Below this display scale a line a few pixels wide drawn on the picture would average away (issue 26 item
-#: 12: on a 55 MP photo shown in a 800 px view, the detections vanished).
+#: Below this display scale a line a few pixels wide drawn on the picture would average away
+#: (on a 55 MP photo shown in a 800 px view, the detections vanished).
 THIN_LINES_SCALE = 0.5
 
 

@@ -1,4 +1,4 @@
-"""Frames of another data kind never reach the pipeline (issue 26 item 13).
+"""Frames of another data kind never reach the pipeline.
 
 When File > Open replaces a running 3D pipeline by a 2D one, the processing thread may hold a cloud it read
 (and checked against the old pipeline's kind) while it waits for the processing lock that the load holds;

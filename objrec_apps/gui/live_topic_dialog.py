@@ -130,7 +130,7 @@ class LiveTopicDialog(QDialog):
         self.refresh_button.setToolTip("List what is published now")
         self.refresh_button.clicked.connect(self.refresh)
         row = QHBoxLayout()
-        transport_label = QLabel("&Transport")  # mnemonics: Alt+T, Alt+M or Alt+D, Alt+R, Alt+O (issue 26)
+        transport_label = QLabel("&Transport")  # mnemonics: Alt+T, Alt+M or Alt+D, Alt+R, Alt+O
         transport_label.setBuddy(self.transport)
         row.addWidget(transport_label)
         row.addWidget(self.transport)

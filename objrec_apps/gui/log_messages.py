@@ -1,4 +1,4 @@
-"""Warnings the sources log, brought to the window's message area (issue 26 item 10).
+"""Warnings the sources log, brought to the window's message area.
 
 A folder's file that cannot be read is skipped with one warning naming it and why
 (``objrec_core.folder_source``): on the command line that warning is the report, but a GUI user never sees

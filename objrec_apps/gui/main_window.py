@@ -135,7 +135,7 @@ class DefinitionGUI(QMainWindow):
         super().__init__()
         #: Whether a source opened while paused shows its first frame at once (a step), rather than waiting
         #: for Step or Play. Always for sources the user opens; for the one opened here, ``first_frame``
-        #: (objrec-define --paused: paused on the first frame, issue 26 item 7).
+        #: (objrec-define --paused: paused on the first frame).
         self.first_frame_when_paused = first_frame
         self._first_frame_wanted = False
         #: The worker's count of processed frames when Loop last restarted a failing source.
@@ -193,7 +193,7 @@ class DefinitionGUI(QMainWindow):
         self.addToolBar(Qt.ToolBarArea.TopToolBarArea, self.seek_bar)
         self.message_area = MessageArea(self)
         self.addDockWidget(Qt.DockWidgetArea.BottomDockWidgetArea, self.message_area)
-        # Issue 26 item 10: a folder's unreadable files, logged by the source, reach the message area too.
+        # A folder's unreadable files, logged by the source, reach the message area too.
         self.source_warnings = LogToMessages()
         self.source_warnings.logged.connect(self._source_warning)
         self.source_warnings.attach()
@@ -203,19 +203,19 @@ class DefinitionGUI(QMainWindow):
         # Fixed widths: a long pixel readout or a deep path must not widen the window (the path is elided).
         self.hover_label.setFixedWidth(480)
         self.path_label.setFixedWidth(280)
-        self.setStatusBar(MessageBar(self))  # messages cut at a word, left of the read-out (issue 26 item 11)
+        self.setStatusBar(MessageBar(self))  # messages cut at a word, left of the read-out
         self.statusBar().addPermanentWidget(self.hover_label)
         self.statusBar().addPermanentWidget(self.path_label)
         self.hover_label.hide()  # shown while the mouse is over a picture: the messages have its room otherwise
 
         self.pipeline_menu = PipelineMenu(self.system, self)
-        # Issue 26: a selection goes to one detector, the one whose panel was last used (or chosen).
+        # A selection goes to one detector, the one whose panel was last used (or chosen).
         self.selection_target = SelectionTarget(self.system, self.panels, self.ask_choice, self)
         self.eyedropper = Eyedropper(self.system, lambda text, error: self.show_message(text, error=error), self)
-        # A row of their own: beside the seek bar of a recording they ran off a 1280 px screen (issue 26).
+        # A row of their own: beside the seek bar of a recording they ran off a 1280 px screen.
         self.addToolBarBreak(Qt.ToolBarArea.TopToolBarArea)
         self.addToolBar(Qt.ToolBarArea.TopToolBarArea, self.eyedropper.toolbar)
-        # Issue 23: labels drawn on the frames (label_mode.py) and their figures, live (quality_strip.py).
+        # Labels drawn on the frames (label_mode.py) and their figures, live (quality_strip.py).
         self._source_spec: str | None = None
         self.labels = LabelMode(self)
         self.addToolBar(Qt.ToolBarArea.TopToolBarArea, self.labels.toolbar)
@@ -416,7 +416,7 @@ class DefinitionGUI(QMainWindow):
         dialog.setLabelText(title)
         dialog.setComboBoxItems(labels)
         dialog.setComboBoxEditable(False)
-        dialog.setOkButtonText("&OK")  # mnemonics in every dialog (issue 26 item 14)
+        dialog.setOkButtonText("&OK")  # mnemonics in every dialog
         dialog.setCancelButtonText("&Cancel")
         ok = dialog.exec() == QInputDialog.DialogCode.Accepted
         label = dialog.textValue()

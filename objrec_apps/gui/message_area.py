@@ -78,7 +78,7 @@ def takes_selections(detector: Any) -> bool:
     return own is not None and own is not Detector.process_area_selection
 
 
-#: What a rectangle can do instead when no detector takes it (issue 26 item 14: the eyedropper was unnamed).
+#: What a rectangle can do instead when no detector takes it (the eyedropper was unnamed).
 EYEDROPPER_HINT = ("; or, to set an HSV filter's ranges from the pixels in the rectangle, drag with the HSV "
                    "eyedropper (Ctrl+E, or hold Shift while dragging)")
 

@@ -60,8 +60,8 @@ WINDOW_UNDO_KEYS = (QKeySequence.StandardKey.Undo, QKeySequence.StandardKey.Redo
 
 
 class WindowUndoKeys(QObject):
-    """An event filter for a spin box: Ctrl+Z and Ctrl+Shift+Z go to the window's undo and redo (issue 26
-    item 9). A spin box's text undo would only undo keystrokes of a value it has already applied, and by
+    """An event filter for a spin box: Ctrl+Z and Ctrl+Shift+Z go to the window's undo and redo. A
+    spin box's text undo would only undo keystrokes of a value it has already applied, and by
     taking the keys it left the window's Undo dead while a spin box had the focus."""
 
     def eventFilter(self, watched: QObject, event: QEvent) -> bool:  # noqa: N802 - Qt override

@@ -1,5 +1,5 @@
-"""File > Open Recent: the parameter files last opened or saved, kept in the window's QSettings (issue 26 item
-14), newest first. A file that no longer exists is left out of the menu rather than offered to fail."""
+"""File > Open Recent: the parameter files last opened or saved, kept in the window's QSettings,
+newest first. A file that no longer exists is left out of the menu rather than offered to fail."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Which detector a rectangle drawn on the views is for (issue 26 item 5).
+"""Which detector a rectangle drawn on the views is for.
 
 A pipeline may hold two feature detectors, each to learn a target of its own: a selection goes to ONE
 detector, so it is one change and one undo step. The detector is the one whose panel the user last worked

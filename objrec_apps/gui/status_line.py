@@ -1,4 +1,4 @@
-"""The status bar's message, cut at a word and never under the pixel read-out (issue 26 item 11).
+"""The status bar's message, cut at a word and never under the pixel read-out.
 
 QStatusBar draws a temporary message clipped at the edge of its room, so a long one ends mid-word ("the
 pipeline has no HSV fil"). This bar draws the same message shortened at a space, with an ellipsis, inside the

@@ -116,7 +116,7 @@ def _expected(items: tuple[dict[str, Any], ...], at: Place, tolerance: float) ->
 def _listed_tasks(data: Any) -> int:
     """How many tasks a mission file lists (its ``tasks`` and every pose's), counted before any is built: each
     ``detect`` builds a recognition system and runs it at every visit, so 20,000 of them would keep the patrol
-    busy for hours (issue 27)."""
+    busy for hours."""
     if not isinstance(data, dict):
         return 0
     lists = [data.get("tasks")]
