@@ -549,17 +549,24 @@ def coverage(fit: ShapeFit, inliers: np.ndarray) -> float:
     return float(10 * min(best, 36))
 
 
-def normal_agreement(fit: ShapeFit, points: np.ndarray, normals: np.ndarray, threshold: float) -> float:
-    """Inliers / points on the model's surface: within ``threshold`` of it, facing outward, and (cylinder)
-    within the inliers' extent along the axis. A real shape's normals agree nearly everywhere on it."""
+def radial_frame(fit: ShapeFit, points: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Each point relative to the fitted shape, as the checks below judge it: its offset from the centre
+    (for a cylinder, from the axis), whether it lies within the inliers' extent along the axis (always, for a
+    sphere), and its distance from the centre or axis (never 0)."""
     rel = points - fit.center
-    band = np.ones(points.shape[0], dtype=bool)
+    extent = np.ones(points.shape[0], dtype=bool)
     if fit.axis is not None:
         along = dot3(rel, fit.axis)
         inlier_along = along[fit.inliers]
-        band = (along >= inlier_along.min()) & (along <= inlier_along.max())
+        extent = (along >= inlier_along.min()) & (along <= inlier_along.max())
         rel = rel - along[:, None] * fit.axis
-    dist = np.maximum(np.linalg.norm(rel, axis=1), 1e-12)
+    return rel, extent, np.maximum(np.linalg.norm(rel, axis=1), 1e-12)
+
+
+def normal_agreement(fit: ShapeFit, points: np.ndarray, normals: np.ndarray, threshold: float) -> float:
+    """Inliers / points on the model's surface: within ``threshold`` of it, facing outward, and (cylinder)
+    within the inliers' extent along the axis. A real shape's normals agree nearly everywhere on it."""
+    rel, band, dist = radial_frame(fit, points)
     band &= (np.abs(dist - fit.radius) < threshold) & (np.einsum("ij,ij->i", normals, rel) > 0)
     return fit.inliers.size / max(int(band.sum()), 1)
 
@@ -572,14 +579,7 @@ def inside_share(fit: ShapeFit, points: np.ndarray, normals: np.ndarray, thresho
     noise scatters points to both sides alike; a flat face fitted by a large arc at a rounded corner leaves
     its chord inside (the milk scan's detergent bottle: 24 % against 1 % for the Clorox bottle and 0 for
     the mug)."""
-    rel = points - fit.center
-    inside_extent = np.ones(points.shape[0], dtype=bool)
-    if fit.axis is not None:
-        along = dot3(rel, fit.axis)
-        inlier_along = along[fit.inliers]
-        inside_extent = (along >= inlier_along.min()) & (along <= inlier_along.max())
-        rel = rel - along[:, None] * fit.axis
-    dist = np.maximum(np.linalg.norm(rel, axis=1), 1e-12)
+    rel, inside_extent, dist = radial_frame(fit, points)
     directions = rel / dist[:, None]
     middle = directions[fit.inliers].mean(axis=0)
     middle /= max(float(np.linalg.norm(middle)), 1e-12)
