@@ -10,7 +10,17 @@ likelihood field summed over every view), keeps the best distinct hypotheses, re
 and then checks each one the strict way: it casts the ring of scans on the map from the hypothesis and counts
 the beams whose range agrees (:func:`agreement`). A pose that explains 90 % of a full turn is very likely
 right; two distinct poses that both do mean the map itself cannot tell them apart (a symmetric room), and
-the robot should say so rather than drive on either.
+the robot should say so rather than drive on either. When three or more such poses are strung along one line
+with the same heading (up to a half turn), the robot stands in a corridor whose walls look the same all along
+within the laser's reach: :func:`along_a_line` says so ("cannot tell where along the corridor") instead of
+naming two of the places as if they were the only two.
+
+How many poses are scored follows the map: ``seeds_per_square_metre`` of the free area the filter seeds in,
+never fewer than ``min_seeds`` (a room of up to 22 m² keeps the lessons' 20,000) nor more than ``max_seeds`` (the
+bound on the CPU of one search: the poses are scored in blocks of :data:`SCORE_BLOCK`, so memory stays bounded
+too). A fixed count spreads thin on a large map (20,000 poses over the Willow Garage office's 857 m² are 23 per
+square metre, one per 4 cm x 4 cm x 15 degrees nowhere near), and the true place may then have no pose near
+enough to score well.
 """
 
 from __future__ import annotations
@@ -24,22 +34,27 @@ import numpy as np
 
 from .geometry import Pose2D, wrap_angle
 from .laser import LaserParams, cast_scan
-from .localization import ParticleFilter, ScanView, compose, inverse
+from .localization import SEED_CLEARANCE, ParticleFilter, ScanView, compose, inverse
 
 log = logging.getLogger(__name__)
 
 
 @dataclass(frozen=True)
 class GlobalSearchParams:
-    """``seeds`` poses are scored against the ring of views; the best ``hypotheses`` distinct ones (closer than
+    """``seeds_per_square_metre`` poses per square metre of free space (at least ``min_seeds``, at most
+    ``max_seeds``: :func:`seed_count`) are scored against the ring of views; the best ``hypotheses`` distinct ones
+    (closer than
     ``separation`` m and ``separation_yaw`` rad are one) are refined in ``refine_rounds`` rounds of
     ``refine_samples`` samples, the spread halving each round from ``refine_xy`` m and ``refine_yaw`` rad. A
     beam agrees with the map when its range is within ``range_tolerance`` m of the range cast on the map (or
     both see nothing within the laser's reach). A hypothesis is worth trying when at least ``accept`` of the
     ring's beams agree; when a distinct runner-up comes within ``ambiguity_margin`` of the best, the map cannot
-    tell the two apart."""
+    tell the two apart; when three or more equally good ones lie within ``line_tolerance`` m of one line (or of it
+    and a parallel line, for those facing the other way), it cannot tell where along a corridor the robot is."""
 
-    seeds: int = 20000
+    seeds_per_square_metre: float = 900.0
+    min_seeds: int = 20000
+    max_seeds: int = 600000
     hypotheses: int = 8
     refine_rounds: int = 5
     refine_samples: int = 200
@@ -47,17 +62,23 @@ class GlobalSearchParams:
     refine_yaw: float = 0.15
     separation: float = 0.5
     separation_yaw: float = 0.5
+    line_tolerance: float = 0.25
     range_tolerance: float = 0.15
     accept: float = 0.75
     ambiguity_margin: float = 0.08
 
     def __post_init__(self) -> None:
-        for name in ("seeds", "hypotheses", "refine_rounds", "refine_samples", "refine_xy", "refine_yaw",
-                     "separation", "separation_yaw", "range_tolerance", "accept", "ambiguity_margin"):
+        for name in ("seeds_per_square_metre", "min_seeds", "max_seeds", "hypotheses", "refine_rounds",
+                     "refine_samples", "refine_xy", "refine_yaw", "separation", "separation_yaw", "line_tolerance",
+                     "range_tolerance",
+                     "accept", "ambiguity_margin"):
             if not getattr(self, name) > 0:
                 raise ValueError(f"global search {name} must be positive, got {getattr(self, name)}")
         if self.accept > 1:
             raise ValueError(f"global search accept must be at most 1, got {self.accept}")
+        if self.min_seeds > self.max_seeds:
+            raise ValueError(f"global search min_seeds ({self.min_seeds}) must not exceed max_seeds "
+                             f"({self.max_seeds})")
 
 
 @dataclass(frozen=True)
@@ -96,6 +117,21 @@ def latest_turn(views: Sequence[ScanView], since: float, fov: float) -> list[Sca
         if yaw_covered(recent[k:], fov) >= 2.0 * math.pi - 1e-6:
             return recent[k:]
     return recent
+
+
+#: Poses scored at once: their (poses x beams) arrays of one view stay a few tens of megabytes.
+SCORE_BLOCK = 20000
+
+
+def free_area(pf: ParticleFilter) -> float:
+    """Square metres of the free space the filter seeds poses in (:meth:`ParticleFilter.free_space_poses`)."""
+    return float(np.count_nonzero(pf.field.dist >= SEED_CLEARANCE)) * pf.field.map.resolution ** 2
+
+
+def seed_count(pf: ParticleFilter, params: GlobalSearchParams) -> int:
+    """How many poses a global search scores on this map: the density times the free area, within the bounds."""
+    wanted = round(params.seeds_per_square_metre * free_area(pf))
+    return int(min(params.max_seeds, max(params.min_seeds, wanted)))
 
 
 def ring_log_likelihood(pf: ParticleFilter, views: Sequence[ScanView], odom_now: Pose2D, x: np.ndarray,
@@ -171,8 +207,9 @@ def search(pf: ParticleFilter, views: Sequence[ScanView], odom_now: Pose2D, lase
            params: GlobalSearchParams | None = None) -> list[Hypothesis]:
     """The distinct poses of the robot now that best explain the ring of ``views``, most agreeing first."""
     p = params or GlobalSearchParams()
-    x, y, yaw = pf.free_space_poses(p.seeds)
-    ll = ring_log_likelihood(pf, views, odom_now, x, y, yaw)
+    x, y, yaw = pf.free_space_poses(seed_count(pf, p), SEED_CLEARANCE)
+    ll = np.concatenate([ring_log_likelihood(pf, views, odom_now, x[k:k + SCORE_BLOCK], y[k:k + SCORE_BLOCK],
+                                             yaw[k:k + SCORE_BLOCK]) for k in range(0, len(x), SCORE_BLOCK)])
     refined = [refine(pf, views, odom_now, Pose2D(float(x[i]), float(y[i]), float(yaw[i])), p, float(ll[i]))
                for i in _distinct_best(x, y, yaw, ll, p.hypotheses, p)]
     hypotheses: list[Hypothesis] = []
@@ -203,6 +240,42 @@ def ambiguity(hypotheses: Sequence[Hypothesis], params: GlobalSearchParams) -> H
     return None
 
 
+def along_a_line(hypotheses: Sequence[Hypothesis], params: GlobalSearchParams) -> str:
+    """The reason when the equally good hypotheses (acceptable, within ``ambiguity_margin`` of the best) are three
+    or more places strung along one line: a corridor that looks the same all along. "" otherwise (no ambiguity,
+    or places that are not on a line).
+
+    The places must share a heading up to a half turn. Those facing one way must lie within ``line_tolerance`` m
+    of a line, and those facing the other way within it of a parallel one: a bare corridor also looks the same
+    turned half round about its centre line, which puts the robot's mirror image on the line across from it."""
+    if not hypotheses:
+        return ""
+    best = max(h.agreement for h in hypotheses)
+    equal = [h for h in hypotheses if h.agreement >= params.accept and h.agreement >= best - params.ambiguity_margin]
+    if len(equal) < 3:
+        return ""
+    yaw0 = equal[0].pose.yaw
+    if any(abs(wrap_angle(2.0 * (h.pose.yaw - yaw0))) / 2.0 > params.separation_yaw for h in equal):
+        return ""  # headed different ways, not just the two ways along a line
+    facing = np.array([abs(wrap_angle(h.pose.yaw - yaw0)) <= math.pi / 2 for h in equal])
+    xy = np.array([(h.pose.x, h.pose.y) for h in equal])
+    centred = xy.copy()
+    for group in (facing, ~facing):
+        if group.any():
+            centred[group] -= xy[group].mean(axis=0)
+    direction = np.linalg.svd(centred, full_matrices=False)[2][0]  # the line the places of each heading follow
+    if np.abs(centred @ np.array([-direction[1], direction[0]])).max() > params.line_tolerance:
+        return ""
+    along = xy @ direction
+    a, b = sorted((xy[int(along.argmin())], xy[int(along.argmax())]), key=lambda q: (q[0], q[1]))
+    low, high = min(h.agreement for h in equal), max(h.agreement for h in equal)
+    mirror = " (and on its mirror image across the corridor, facing the other way)" if not facing.all() else ""
+    return (f"cannot tell where along the corridor: the {len(equal)} best places found lie along one line from "
+            f"({a[0]:.2f}, {a[1]:.2f}) to ({b[0]:.2f}, {b[1]:.2f}){mirror} and explain a full turn of scans equally "
+            f"well ({low:.0%} to {high:.0%} of beams agree); the walls look the same all along within the laser's "
+            "reach")
+
+
 def second_opinion(pf: ParticleFilter, views: Sequence[ScanView], odom_now: Pose2D, laser: LaserParams, pose: Pose2D,
                    params: GlobalSearchParams | None = None) -> str:
     """Why ``pose`` (the robot now) should not be trusted on the evidence of ``views``, or "" when it should.
@@ -220,10 +293,11 @@ def second_opinion(pf: ParticleFilter, views: Sequence[ScanView], odom_now: Pose
     if own < p.accept:
         return f"only {own:.0%} of the last turn's beams agree with the map from there (< {p.accept:.0%})"
     mine = Hypothesis(pose, 0.0, own)
-    for other in search(pf, views, odom_now, laser, p):
-        if not other.distinct_from(mine, p) or other.agreement < own - p.ambiguity_margin:
+    others = [h for h in search(pf, views, odom_now, laser, p) if h.distinct_from(mine, p)]
+    for other in others:
+        if other.agreement < own - p.ambiguity_margin:
             continue
         if other.agreement > own + p.ambiguity_margin:
             return f"{other.describe()} explains the last turn better than {mine.describe()}"
-        return same_view(mine, other)
+        return along_a_line([mine, *others], p) or same_view(mine, other)
     return ""

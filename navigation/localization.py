@@ -196,6 +196,10 @@ def kld_sample_count(bins: int, err: float, z: float) -> int:
     return math.ceil(k / (2.0 * err) * x * x * x)
 
 
+#: Metres from any obstacle a pose drawn over the free space keeps (the robot's centre cannot be nearer a wall).
+SEED_CLEARANCE = 0.15
+
+
 class ParticleFilter:
     """The particle cloud and its three operations: predict (odometry), weigh (scan), resample.
 
@@ -436,13 +440,14 @@ class ParticleFilter:
         short = min(int(np.count_nonzero(explained)) - hits, hits)
         return (hits + short) / n, hits / n, float(row.mean()), n
 
-    def seed_free_space(self, count: int, clearance: float = 0.15) -> None:
+    def seed_free_space(self, count: int, clearance: float = SEED_CLEARANCE) -> None:
         """Particles spread evenly over the map's free cells at least ``clearance`` from obstacles, with any
         heading: the global re-seed of augmented MCL, when no guess of the pose is left."""
         self.x, self.y, self.yaw = self.free_space_poses(count, clearance)
         self.w = np.full(count, 1.0 / count)
 
-    def free_space_poses(self, count: int, clearance: float = 0.15) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def free_space_poses(self, count: int, clearance: float = SEED_CLEARANCE) -> tuple[np.ndarray, np.ndarray,
+                                                                                        np.ndarray]:
         """``count`` poses (x, y, yaw arrays) drawn evenly over the free cells at least ``clearance`` from
         obstacles, with any heading."""
         rows, cols = np.nonzero(self.field.dist >= clearance)

@@ -6,6 +6,10 @@
 * :data:`SYMMETRIC_ROOM_BLOCKS`: the same room with blocks that a half turn about its centre maps onto each other,
   so every place has a twin that looks the same (:func:`twin`): after a kidnap the map cannot tell the robot
   where it is, and it must say so rather than drive on a guess.
+* :data:`CORRIDOR_LENGTH`, :data:`CORRIDOR_GOALS`, :data:`CORRIDOR_KIDNAP`: a 30 m corridor 2 m wide with bare
+  walls (:func:`navigation.people_scenarios.corridor_map`); the robot patrols between its ends and is carried to
+  its middle, 15 m from either end, farther than the laser's 6 m: every place along the middle looks the same,
+  and the robot must say it cannot tell where along the corridor it is.
 * :func:`box_between_pillars`: the issue's unmapped 0.5 m box, centred between the TurtleBot3 world's middle
   pillar and its neighbour along +x, about 0.15 m from each.
 * :func:`spread_goals`: goal poses spread over the largest free region by farthest-point sampling.
@@ -33,6 +37,10 @@ LOST_ROOM_KIDNAP = Pose2D(1.2, 3.3, 0.0)
 SYMMETRIC_ROOM_BLOCKS = ((1.0, 0.5, 1.6, 1.2), (5.4, 2.8, 6.0, 3.5), (3.0, 1.8, 4.0, 2.2))
 SYMMETRIC_ROOM_GOALS = (Pose2D(1.0, 2.0, 0.0), Pose2D(3.5, 3.3, 0.0), Pose2D(6.0, 2.0, 3.0), Pose2D(3.5, 0.8, 3.0))
 SYMMETRIC_ROOM_KIDNAP = Pose2D(2.2, 3.2, 0.5)
+CORRIDOR_LENGTH, CORRIDOR_WIDTH = 30.0, 2.0
+CORRIDOR_GOALS = (Pose2D(2.0, 1.0, 0.0), Pose2D(28.0, 1.0, math.pi))
+#: Facing a side wall in the middle: amcl, which believes the robot faces along the corridor, notices at once.
+CORRIDOR_KIDNAP = Pose2D(15.0, 1.0, math.pi / 2)
 PILLAR_MAX = 0.5  # metres: an obstacle blob smaller than this on both axes is a pillar
 BOX_SIZE = 0.5
 

@@ -16,7 +16,8 @@ collapses onto whatever sees a wall where the first scan did); it scores poses o
 full turn of scans the robot has just taken (:mod:`navigation.amcl_global`), checks the best by casting that turn
 on the map, and re-seeds the filter around it. amcl must then confirm it over ``trial_turns`` more turns, or the
 next hypothesis is tried. When two distinct places explain the turn equally well (a symmetric room), the robot
-says so and gives up instead of driving on a guess.
+says so and gives up instead of driving on a guess; when several lie along one line (a corridor whose walls look
+the same all along), it says it cannot tell where along the corridor it is.
 
 :func:`schedule_kidnap` is the other half of the lesson: it teleports the true robot at a simulated time, which
 its odometry never notices.
@@ -35,6 +36,7 @@ import numpy as np
 from .amcl_global import (
     GlobalSearchParams,
     Hypothesis,
+    along_a_line,
     ambiguity,
     latest_turn,
     same_view,
@@ -224,7 +226,7 @@ class Relocalize:
                  "agreement": round(h.agreement, 3)} for h in found])
             twin = ambiguity(found, p)
             if twin is not None:
-                return f"{same_view(found[0], twin)}: it cannot tell where the robot is"
+                return along_a_line(found, p) or f"{same_view(found[0], twin)}: it cannot tell where the robot is"
             self._hypotheses = [h for h in found if h.agreement >= p.accept]
             if not self._hypotheses:
                 best = f"; best {found[0].describe()}" if found else ""

@@ -324,10 +324,15 @@ def _label(img: np.ndarray, text: str, line: int = 0, swatch: Colour | None = No
     cv2.putText(img, drawable(text), (x, y + h + 2), cv2.FONT_HERSHEY_SIMPLEX, fs, TEXT_COLOUR, 1, cv2.LINE_AA)
 
 
-def _keys(img: np.ndarray, pic: RunPicture, first_line: int) -> None:
-    """The legend under the caption: the zones (each with its colour) and the localisation marks."""
-    entries: list[tuple[str, Colour | None]] = [(f"{label}: {ZONE_NOTES[label]}", colour)
-                                                for label, colour in zone_legend(pic.zones)]
+#: The key entry of the robot's orange ring: where it stands at the end of the run (a still) or now (a frame).
+ROBOT_KEY = {"still": "robot at the end of the run (ring, line: heading)", "frame": "robot now (ring, line: heading)"}
+
+
+def _keys(img: np.ndarray, pic: RunPicture, first_line: int, robot: str = "still") -> None:
+    """The legend under the caption: the robot's ring (when it is drawn), the zones (each with its colour) and
+    the localisation marks."""
+    entries: list[tuple[str, Colour | None]] = [(ROBOT_KEY[robot], ROBOT_COLOUR)] if pic.trajectory else []
+    entries += [(f"{label}: {ZONE_NOTES[label]}", colour) for label, colour in zone_legend(pic.zones)]
     entries += [(text, None) for text in _localization_key(pic)]
     for k, (text, swatch) in enumerate(entries):
         _label(img, text, first_line + k, swatch)
@@ -372,7 +377,7 @@ def render_frames(pic: RunPicture, max_side: int = 720, max_frames: int = 300, m
         _draw_localization(canvas, pic, img, pic.trajectory[done - 1][0])
         _draw_robot(canvas, pic, img, done - 1)
         _label(img, f"t = {pic.trajectory[done - 1][0]:7.1f} s   {_state_at(pic, pic.trajectory[done - 1][0])}")
-        _keys(img, pic, 1)
+        _keys(img, pic, 1, "frame")
         yield img
 
 

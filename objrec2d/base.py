@@ -26,10 +26,13 @@ class ImageDetector(Detector):
     object_array_type: ClassVar[type[DetectedObjectArray]] = DetectedObject2DArray
 
 
+_UINT8 = np.dtype(np.uint8)
+
+
 def as_gray(image: np.ndarray) -> np.ndarray:
     """A single-channel 8-bit view of any image: masks pass through untouched, colour is converted once,
     boolean or float masks from a plug-in filter become 0/255."""
-    if image.dtype != np.uint8:
+    if image.dtype is not _UINT8 and image.dtype != np.uint8:  # the identity first: a third of the comparison's time
         if image.dtype == np.bool_ or image.ndim == 2 or (image.ndim == 3 and image.shape[2] == 1):
             image = np.where(image.reshape(image.shape[:2]) > 0, np.uint8(255), np.uint8(0))
         else:

@@ -66,21 +66,21 @@ class BinaryDetector(ImageDetector):
     def detect(self, frame: np.ndarray) -> Detections:
         """The kept blobs; when none, the reason is an empty mask, or which rules dropped how many blobs.
 
-        The loop over the blobs does the rules and makes the objects, nothing else (a busy frame has 70 of them
-        and each microsecond per blob shows against bare OpenCV: benchmarks/bench_2d.py); what the rules
-        dropped is counted only when nothing was kept, where the reason needs it."""
+        The loop over the blobs does the rules and keeps each hull and flag, nothing else (a busy frame has 70
+        of them and each microsecond per blob shows against bare OpenCV: benchmarks/bench_2d.py); the objects
+        are made together from them, and what the rules dropped is counted only when nothing was kept, where
+        the reason needs it."""
         p = self.params
         lo, hi, keep_border = p.min_contour_length, p.max_contour_length, p.border_blobs
         mask = as_gray(frame)
         height, width = mask.shape
         max_area = p.max_area_fraction * width * height
         contours, _ = cv2.findContours(mask, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_SIMPLE)
-        name = self.object_name
-        make = DetectedObject2D.with_outline
         arc_length, bounding_rect, contour_area, convex_hull = (
             cv2.arcLength, cv2.boundingRect, cv2.contourArea, cv2.convexHull)
-        found = Detections()
-        keep = found.append
+        hulls: list[np.ndarray] = []
+        cut: list[bool] = []
+        keep_hull, keep_cut = hulls.append, cut.append
         for contour in contours:
             if not lo <= arc_length(contour, True) <= hi:
                 continue
@@ -88,10 +88,11 @@ class BinaryDetector(ImageDetector):
             truncated = x == 0 or y == 0 or x + w == width or y + h == height
             if (truncated and not keep_border) or contour_area(contour) > max_area:
                 continue
-            keep(make(name, convex_hull(contour), truncated))
-        if not found:
-            found.reason = self._reason(len(contours), self._dropped(contours, p, width, height), p)
-        return found
+            keep_hull(convex_hull(contour))
+            keep_cut(truncated)
+        if hulls:
+            return Detections(DetectedObject2D.outlined(self.object_name, hulls, cut))
+        return Detections((), self._reason(len(contours), self._dropped(contours, p, width, height), p))
 
     @staticmethod
     def _dropped(contours: Any, p: Any, width: int, height: int) -> _Dropped:

@@ -174,7 +174,9 @@ class FeatureDetector(ImageDetector):
         True,
         "After the keypoint fit, align the target's pixels with the frame's (correlation, a few ms per found copy): "
         "places the outline to a fraction of a pixel where keypoints alone leave it 1-2 px off (ORB); an "
-        "alignment that fails or moves a corner more than 2x reprojection_threshold is not taken",
+        "alignment that fails is not taken, nor one that moves a corner more than reprojection_threshold and carries "
+        "the keypoint inliers away (judged where at least 10 inliers are; with fewer, a move beyond 2x "
+        "reprojection_threshold is not taken)",
     )
     min_inliers = Int(10, "Fewest homography inliers for a detection", min=4, max=10000, soft_max=200)
     min_inlier_coverage = Float(
@@ -348,18 +350,20 @@ class FeatureDetector(ImageDetector):
             found = FeatureMatch(DetectionStatus.TOO_FEW_KEYPOINTS, reason, frame.shape, frame_points)
             return self._finish(found, target)
         candidates = model.matcher.candidates(descriptors, p.ratio if p.ratio_test else None)
-        available = np.ones(len(keypoints), dtype=bool)
+        # The frame keypoints no copy found so far occupies; only a search for several copies sets any aside.
+        available = np.ones(len(keypoints), dtype=bool) if p.max_instances > 1 else None
         instances: list[Instance] = []
         failed: FeatureMatch | None = None
         for _ in range(p.max_instances + EXTRA_ATTEMPTS):
             if len(instances) >= p.max_instances:
                 break
             matches = model.matcher.select(candidates, descriptors, p.cross_check, available if instances else None)
-            attempt = self._attempt(target, frame_points, matches, gray, frame.shape, int(available.sum()))
+            remaining = int(available.sum()) if instances and available is not None else len(keypoints)
+            attempt = self._attempt(target, frame_points, matches, gray, frame.shape, remaining)
             if not isinstance(attempt, Instance):
                 failed = attempt
                 break
-            if p.max_instances == 1:  # nothing to set aside: no further copy is looked for
+            if available is None:  # max_instances 1: nothing to set aside, no further copy is looked for
                 instances.append(attempt)
                 break
             available[matches.frame_idx[attempt.inliers]] = False
@@ -372,7 +376,8 @@ class FeatureDetector(ImageDetector):
         if not instances:
             assert failed is not None  # the first attempt either found a copy or failed
             return self._finish(failed, target)
-        instances.sort(key=lambda instance: -instance.inlier_count)  # best supported first
+        if len(instances) > 1:
+            instances.sort(key=lambda instance: -instance.inlier_count)  # best supported first
         first = instances[0]
         next_reason = None
         if len(instances) < p.max_instances:
@@ -442,15 +447,18 @@ class FeatureDetector(ImageDetector):
             return failed(DetectionStatus.DEGENERATE_POLYGON, f"degenerate polygon: {problem}", inliers=inliers,
                           homography=homography, coverage=coverage, quadrilateral=quadrilateral)
         if p.photometric_refinement:
-            homography, quadrilateral = self._aligned(target, gray, homography, quadrilateral, limits)
+            pairs = (source[inliers], destination[inliers])
+            homography, quadrilateral = self._aligned(target, gray, homography, quadrilateral, limits, pairs)
         return Instance(matches, inliers, homography, quadrilateral, coverage)
 
     def _aligned(self, target: Target, gray: np.ndarray, homography: np.ndarray, quadrilateral: np.ndarray,
-                 limits: PolygonLimits) -> tuple[np.ndarray, np.ndarray]:
-        """The homography and outline after the photometric refinement; the keypoint fit's where it is not taken."""
+                 limits: PolygonLimits, inlier_pairs: tuple[np.ndarray, np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
+        """The homography and outline after the photometric refinement; the keypoint fit's where it is not taken.
+        The fit's inliers (target and frame positions) judge a correction larger than reprojection_threshold."""
         roi = target.roi
+        threshold = self.params.reprojection_threshold
         refined, why = refine_photometric(target.gray, (roi.x, roi.y, roi.width, roi.height), gray, homography,
-                                          2.0 * self.params.reprojection_threshold)
+                                          2.0 * threshold, inlier_pairs, threshold)
         if refined is None:
             log.debug("%s: keypoint fit kept: %s", self.label, why)
             return homography, quadrilateral
@@ -461,7 +469,8 @@ class FeatureDetector(ImageDetector):
 
     def _finish(self, result: FeatureMatch, target: Target | None, objects: list[DetectedObject2D] | None = None
                 ) -> Detections:
-        log.debug("%s: %s", self.label, result.reason or "found")
+        if log.isEnabledFor(logging.DEBUG):  # not even the label is worked out per frame otherwise
+            log.debug("%s: %s", self.label, result.reason or "found")
         return Detections(objects or [], result.reason, (result, target))
 
     def ready(self) -> str | None:

@@ -16,11 +16,18 @@ closer to the silhouette the normals are smoothed across it and stereo depth ble
 - the radial residuals across the arc must be a *band without a parabola*: a flat face leaves the fitted
   circle tangentially, a systematic sag that a quadratic in the arc angle picks up; its size at the window's
   ends, in units of the residuals' own noise, is -1.9 to 0.6 on real cylinders (depth noise included) and up
-  to 6 on flat-sided objects (5.1 on the milk scan's bottle).
+  to 6 on flat-sided objects (5.1 on the milk scan's bottle);
+- the normals must turn *evenly* (the ``wave``): a box whose vertical edges are rounded shows flat stretches whose
+  normals do not turn, joined by short fast turns, so the normals' departure from the fitted surface's, per bin,
+  swings back and forth across the arc (a wave of 4-11 degrees on 5-12 cm faces with 1-3 cm edges at 0.6-2 m)
+  where a round surface's stays on one straight line (the bins' own noise taken off: at most 3.8 degrees on
+  the fresh-table cylinders, 3.5 on the benchmark's, 2.0 on the mug and Clorox scans). Where the edge radius is
+  half the face, the end *is* a half cylinder: nothing in its arc tells it from a round object.
 
 "Real cylinders": the several-shape benchmark's synthetic scenes at 0.5-2.5 m (neighbours touching them
 included), the fresh-table sensor model at 0.8-2.5 m, the mug and Clorox scans; "box edges": boxes of 12-20 cm
-with sharp and rounded edges at 0.8-2.5 m (tests/objrec3d/test_3d_flat_sided.py).
+with sharp and rounded edges at 0.8-2.5 m (tests/objrec3d/test_3d_flat_sided.py), and of 5-12 cm with 1-3 cm
+edges at 0.6-2 m (tests/objrec3d/test_3d_arc_checks_wave.py).
 """
 
 from __future__ import annotations
@@ -62,6 +69,15 @@ MIN_ACROSS = math.cos(math.radians(45.0))
 #: ``MIN_BIN_POINTS`` points each (at least three bins, or the checks pass).
 BIN_DEGREES = 10.0
 MIN_BIN_POINTS = 3
+#: The wave is measured on the bins within this many degrees of the direction to the sensor: nearer the
+#: silhouette a real cylinder's smoothed normals bend toward the sensor (on small and far cylinders by up to
+#: 10 degrees at 55-65), a pattern of their own that is no flat stretch.
+WAVE_DEGREES = 50.0
+#: Fewer bins than this within ``WAVE_DEGREES`` say nothing about the wave (it is 0).
+MIN_WAVE_BINS = 4
+#: The bins' own noise taken off the wave: this many standard errors of a bin's median (the median of n normals
+#: of robust spread s has a standard error of about 1.25 s / sqrt(n)).
+WAVE_NOISE_ERRORS = 2.0
 
 
 @dataclass(frozen=True)
@@ -73,6 +89,7 @@ class ArcProfile:
     agreement: float  # share of the window's normals within AGREEMENT_DEGREES of the fitted surface's
     sag: float  # the quadratic's departure at the window's ends, in units of the residuals' noise (signed)
     sag_metres: float  # the same in metres
+    wave: float = 0.0  # degrees: how unevenly the normals turn (their departure's spread about a straight line)
 
 
 def arc_profile(fit: ShapeFit, points: np.ndarray, normals: np.ndarray, threshold: float,
@@ -108,11 +125,12 @@ def arc_profile(fit: ShapeFit, points: np.ndarray, normals: np.ndarray, threshol
     at = np.arctan2(y[keep], x[keep])
     facing = np.arctan2(ny[keep], nx[keep])
     residual = dist[keep] - fit.radius
-    off = np.abs((facing - at + math.pi) % (2.0 * math.pi) - math.pi)
+    departure = (facing - at + math.pi) % (2.0 * math.pi) - math.pi  # signed: the wave needs its sign
+    off = np.abs(departure)
     # A face continuing the arc turns away from the fitted surface's normal gradually, a neighbouring object's
     # surface (a sphere against the cylinder, the next can) at once and by more: leave the latter out.
     same = off < math.radians(CONTINUATION_DEGREES)
-    at, facing, residual, off = at[same], facing[same], residual[same], off[same]
+    at, facing, residual, off, departure = at[same], facing[same], residual[same], off[same], departure[same]
     count = int(same.sum())
     if count < MIN_WINDOW_POINTS:
         return None
@@ -142,7 +160,33 @@ def arc_profile(fit: ShapeFit, points: np.ndarray, normals: np.ndarray, threshol
     noise = max(1.4826 * float(np.median(np.abs(spread_about))), NOISE_FLOOR_SHARE * threshold)
     half = 0.5 * float(mid_at.max() - mid_at.min())
     sag = float(coefficients[2]) * half * half
-    return ArcProfile(count, turn, agreement, sag / noise, sag)
+    wave = _wave(bins, departure, mid_at, starts[full], sizes[full])
+    return ArcProfile(count, turn, agreement, sag / noise, sag, wave)
+
+
+def _wave(bins: np.ndarray, departure: np.ndarray, mid_at: np.ndarray, starts: np.ndarray, sizes: np.ndarray
+          ) -> float:
+    """How unevenly the normals turn, degrees: the per-bin medians of the normals' signed ``departure`` from the
+    fitted surface's, within ``WAVE_DEGREES`` of the sensor's direction, about their weighted straight line in
+    the arc angle (a turn other than 1 is such a line, and ``min_turn``'s to judge), less the bins' own noise.
+
+    A round surface leaves a band about the line; a rounded box a swing (a flat stretch's normals lag behind
+    the arc, the rounded edge's catch up), which no straight line takes out."""
+    mid_departure = _bin_medians(bins, departure, starts, sizes)
+    ordered = departure[np.lexsort((departure, bins))]
+    spread = np.array([1.4826 * float(np.median(np.abs(ordered[s:s + n] - m)))
+                       for s, n, m in zip(starts, sizes, mid_departure, strict=True)])
+    inner = np.abs(mid_at) <= math.radians(WAVE_DEGREES)
+    if inner.sum() < MIN_WAVE_BINS:
+        return 0.0
+    x, y, n, spread = mid_at[inner], mid_departure[inner], sizes[inner].astype(np.float64), spread[inner]
+    weight = np.sqrt(n)
+    design = np.stack([np.ones_like(x), x], axis=1) * weight[:, None]
+    coefficients, *_ = np.linalg.lstsq(design, y * weight, rcond=None)
+    left = y - coefficients[0] - coefficients[1] * x
+    squared = float(np.sum(n * left * left) / np.sum(n))
+    errors = float(np.mean((1.2533 * spread) ** 2 / n))
+    return math.degrees(math.sqrt(max(0.0, squared - WAVE_NOISE_ERRORS**2 * errors)))
 
 
 def _bin_medians(bins: np.ndarray, values: np.ndarray, starts: np.ndarray, sizes: np.ndarray) -> np.ndarray:

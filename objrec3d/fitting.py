@@ -27,7 +27,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .vec import dot3, pair_dots
+from .vec import cross3, dot3, norms, pair_dots, row_dots, squared_norms
 
 log = logging.getLogger(__name__)
 
@@ -138,10 +138,10 @@ def fit_plane(
         batch = min(_BATCH, max_iterations - done)
         idx = rng.integers(0, sample.shape[0], size=(batch, 3))
         a, b, c = sample[idx[:, 0]], sample[idx[:, 1]], sample[idx[:, 2]]
-        normals = np.cross(b - a, c - a)
-        length = np.linalg.norm(normals, axis=1)
+        normals = cross3(b - a, c - a)
+        length = norms(normals)
         # Three points (nearly) on one line define no plane: on a collinear cloud every draw is such a triple.
-        ok = length > np.maximum(1e-3 * np.linalg.norm(b - a, axis=1) * np.linalg.norm(c - a, axis=1), 1e-9)
+        ok = length > np.maximum(1e-3 * norms(b - a) * norms(c - a), 1e-9)
         done += batch
         if not ok.any():
             continue
@@ -180,28 +180,49 @@ def fit_plane(
 def _costs(
     shape: str, centers: np.ndarray, axes: np.ndarray | None, radii: np.ndarray, pts: np.ndarray, nrm: np.ndarray,
     pts_sq: np.ndarray, nrm_dot_pts: np.ndarray, weight: float, scale: np.ndarray | None = None,
+    work: tuple[np.ndarray, ...] | None = None,
 ) -> np.ndarray:
     """Per-point cost for H models x M points (H x M), with matrix products only; divided by ``scale`` (M, the
-    depth noise model's, ``noise_scale``) when given."""
-    cp = pair_dots(centers, pts)  # H x M
-    v2 = pts_sq[None, :] - 2.0 * cp + (centers * centers).sum(axis=1)[:, None]
-    nv = nrm_dot_pts[None, :] - pair_dots(centers, nrm)  # n . (p - c)
-    if shape == "sphere":
-        dist2 = v2
-        nr = nv
-    else:
-        along = pair_dots(axes, pts) - (centers * axes).sum(axis=1)[:, None]
-        dist2 = v2 - along * along
-        nr = nv - along * pair_dots(axes, nrm)  # n . radial vector
+    depth noise model's, ``noise_scale``) when given. ``work``: four arrays of at least H rows by M of the
+    result's dtype to compute in (``_workspace``; the result is a view of the first): a RANSAC search scores
+    every batch in the same memory instead of a dozen fresh H x M temporaries (each one's first touch of its
+    pages cost as much as the arithmetic). The same operations in the same order as without it: the same bits."""
+    h = centers.shape[0]
+    if work is None:
+        work = _workspace(h, pts.shape[0], np.result_type(centers, pts))
+    dist2, nr, along, tmp = (w[:h] for w in work)
+    pair_dots(centers, pts, out=dist2)
+    np.multiply(dist2, 2.0, out=dist2)
+    np.subtract(pts_sq, dist2, out=dist2)
+    dist2 += squared_norms(centers)[:, None]  # |p - c|^2
+    pair_dots(centers, nrm, out=nr)
+    np.subtract(nrm_dot_pts, nr, out=nr)  # n . (p - c)
+    if shape != "sphere":
+        pair_dots(axes, pts, out=along)
+        along -= row_dots(centers, axes)[:, None]
+        np.multiply(along, along, out=tmp)
+        dist2 -= tmp  # squared distance from the axis
+        pair_dots(axes, nrm, out=tmp)
+        tmp *= along
+        nr -= tmp  # n . radial vector
     np.maximum(dist2, 1e-12, out=dist2)
-    dist = np.sqrt(dist2)
-    cos = nr / dist
+    dist = np.sqrt(dist2, out=dist2)
+    cos = np.divide(nr, dist, out=nr)
     np.clip(cos, -1.0, 1.0, out=cos)
-    angle = np.arccos(cos)
-    cost = weight * angle + (1.0 - weight) * np.abs(dist - radii[:, None])
+    angle = np.arccos(cos, out=cos)
+    angle *= weight
+    dist -= radii[:, None]
+    cost = np.abs(dist, out=dist)
+    cost *= 1.0 - weight
+    cost += angle
     if scale is not None:
         cost /= scale
     return cost
+
+
+def _workspace(rows: int, columns: int, dtype: np.dtype | type = np.float32) -> tuple[np.ndarray, ...]:
+    """The four arrays ``_costs`` computes in."""
+    return tuple(np.empty((rows, columns), dtype) for _ in range(4))
 
 
 Hypotheses = tuple[np.ndarray, np.ndarray | None, np.ndarray]  # centres, axes (None: spheres), radii
@@ -209,13 +230,13 @@ Hypotheses = tuple[np.ndarray, np.ndarray | None, np.ndarray]  # centres, axes (
 
 def _cylinder_hypotheses(p1: np.ndarray, n1: np.ndarray, p2: np.ndarray, n2: np.ndarray,
                          settings: ShapeSettings) -> Hypotheses:
-    raw = np.cross(n1, n2)
-    sin2 = (raw * raw).sum(axis=1)
+    raw = cross3(n1, n2)
+    sin2 = squared_norms(raw)
     ok = sin2 > math.sin(_MIN_PAIR_ANGLE) ** 2
     d = p2 - p1
     with np.errstate(invalid="ignore", divide="ignore"):
-        s = np.einsum("ij,ij->i", np.cross(d, n2), raw) / sin2  # p1 + s n1 reaches the axis
-        t = np.einsum("ij,ij->i", np.cross(d, n1), raw) / sin2  # p2 + t n2 reaches the axis
+        s = np.einsum("ij,ij->i", cross3(d, n2), raw) / sin2  # p1 + s n1 reaches the axis
+        t = np.einsum("ij,ij->i", cross3(d, n1), raw) / sin2  # p2 + t n2 reaches the axis
     # Outward normals: the axis lies behind both points (s, t < 0); both must see the same radius.
     r1, r2 = -s, -t
     radius = 0.5 * (r1 + r2)
@@ -230,7 +251,7 @@ def _cylinder_hypotheses(p1: np.ndarray, n1: np.ndarray, p2: np.ndarray, n2: np.
 def _sphere_hypotheses(p1: np.ndarray, n1: np.ndarray, p2: np.ndarray, n2: np.ndarray,
                        settings: ShapeSettings) -> Hypotheses:
     d = p2 - p1
-    dd = (d * d).sum(axis=1)
+    dd = squared_norms(d)
     with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
         r1 = -dd / (2.0 * np.einsum("ij,ij->i", d, n1))  # |p2 - (p1 - r n1)| = r
         r2 = -dd / (-2.0 * np.einsum("ij,ij->i", d, n2))  # |p1 - (p2 - r n2)| = r
@@ -251,9 +272,16 @@ def _pair_sampler(points: np.ndarray, cell: float, rng: np.random.Generator
     span = keys.max(axis=0) + 1
     flat = (keys[:, 0] * span[1] + keys[:, 1]) * span[2] + keys[:, 2]
     order = np.argsort(flat, kind="stable")
-    _, starts, counts = np.unique(flat[order], return_index=True, return_counts=True)
+    ordered = flat[order]
+    first = np.empty(ordered.size, dtype=bool)  # where a cell's run starts in the sorted keys
+    first[0] = True
+    np.not_equal(ordered[1:], ordered[:-1], out=first[1:])
+    starts = np.flatnonzero(first)
+    counts = np.empty_like(starts)
+    counts[:-1] = starts[1:] - starts[:-1]
+    counts[-1] = ordered.size - starts[-1]
     group = np.empty(points.shape[0], dtype=np.int64)
-    group[order] = np.repeat(np.arange(starts.size), counts)
+    group[order] = np.cumsum(first) - 1
 
     def draw(size: int) -> tuple[np.ndarray, np.ndarray]:
         first = rng.integers(0, points.shape[0], size=size)
@@ -287,10 +315,11 @@ def ransac_shape(
     m = min(n, _SUBSAMPLE)
     pick = rng.choice(n, size=m, replace=False) if n > m else np.arange(n)
     sp, sn = local[pick], nrm[pick]
-    sp_sq, sn_dot = (sp * sp).sum(axis=1), (sn * sp).sum(axis=1)
+    sp_sq, sn_dot = squared_norms(sp), row_dots(sn, sp)
     sp_scale = noise_scale(settings, sp)
     make = _sphere_hypotheses if settings.shape == "sphere" else _cylinder_hypotheses
     draw = _pair_sampler(local, 2.0 * max(settings.max_radius, settings.threshold), rng)
+    work = _workspace(min(_BATCH, settings.max_iterations), m)
     t = settings.threshold
     best_cost, best = math.inf, None
     done, needed = 0, math.inf
@@ -308,15 +337,16 @@ def ransac_shape(
         centers, axes, radii = make(local[i[ok]], nrm[i[ok]], local[j[ok]], nrm[j[ok]], settings)
         if radii.size == 0:
             continue
-        cost = _costs(settings.shape, centers, axes, radii, sp, sn, sp_sq, sn_dot, settings.normal_weight, sp_scale)
-        inlier = cost < t
-        msac = np.where(inlier, cost, t).sum(axis=1)
+        cost = _costs(settings.shape, centers, axes, radii, sp, sn, sp_sq, sn_dot, settings.normal_weight, sp_scale,
+                      work)
+        truncated = np.fmin(cost, t, out=cost)  # the MSAC cost; a point is an inlier where it stays below t
+        msac = truncated.sum(axis=1)
         k = int(np.argmin(msac))
         if msac[k] < best_cost:
             best_cost = float(msac[k])
             best = (centers[k].astype(np.float64), None if axes is None else axes[k].astype(np.float64),
                     float(radii[k]))
-            needed = required_iterations(int(inlier[k].sum()) / m, 2, settings.probability)
+            needed = required_iterations(int(np.count_nonzero(truncated[k] < t)) / m, 2, settings.probability)
     if best is None:
         return None
     center, axis, radius = best
@@ -367,14 +397,14 @@ def _noise_weighted(settings: ShapeSettings, pts: np.ndarray, nrm: np.ndarray, c
         position = dot3(pts[band] - center, axis)[:, None]
     else:
         outward = pts[band] - center
-        outward /= np.maximum(np.linalg.norm(outward, axis=1), 1e-12)[:, None]
+        outward /= np.maximum(norms(outward), 1e-12)[:, None]
         middle = outward.mean(axis=0)
         toward = middle - dot3(outward, middle)[:, None] * outward
-        length = np.linalg.norm(toward, axis=1)
+        length = norms(toward)
         keep = length > 0.05 * max(float(np.linalg.norm(middle)), 1e-12)
         if keep.sum() < 8:
             return settings
-        around = np.cross(outward[keep], toward[keep] / length[keep, None])
+        around = cross3(outward[keep], toward[keep] / length[keep, None])
         sideways = np.einsum("ij,ij->i", nrm[band][keep], around)
         position = outward[keep] - middle / float(np.linalg.norm(middle))
     # Another shape's normals (a sphere's seen as a cylinder) tilt in that direction too, but in step with the
@@ -396,7 +426,7 @@ def full_costs(settings: ShapeSettings, points: np.ndarray, normals: np.ndarray,
                axis: np.ndarray | None, radius: float) -> np.ndarray:
     """Each point's cost under one model (N)."""
     return _costs(settings.shape, center[None, :], None if axis is None else axis[None, :], np.array([radius]),
-                  points, normals, (points * points).sum(axis=1), (normals * points).sum(axis=1),
+                  points, normals, squared_norms(points), row_dots(normals, points),
                   settings.normal_weight, noise_scale(settings, points))[0]
 
 
@@ -416,7 +446,7 @@ def _residuals(pts: np.ndarray, nrm: np.ndarray, center: np.ndarray, axis: np.nd
     rel = pts - center
     if axis is not None:
         rel = rel - dot3(rel, axis)[:, None] * axis
-    dist = np.maximum(np.linalg.norm(rel, axis=1), 1e-12)
+    dist = np.maximum(norms(rel), 1e-12)
     return np.abs(dist - radius), np.einsum("ij,ij->i", nrm, rel) / dist
 
 
@@ -528,9 +558,9 @@ def _polish(settings: ShapeSettings, pts: np.ndarray, nrm: np.ndarray, fit: Shap
             axis = vectors[:, 0] if vectors[:, 0] @ current.axis >= 0 else -vectors[:, 0]
             if axis @ current.axis < math.cos(math.radians(15.0)):
                 axis = current.axis
-            u = np.cross(axis, [1.0, 0.0, 0.0] if abs(axis[0]) < 0.9 else [0.0, 1.0, 0.0])
+            u = cross3(axis, [1.0, 0.0, 0.0] if abs(axis[0]) < 0.9 else [0.0, 1.0, 0.0])
             u /= np.linalg.norm(u)
-            v = np.cross(axis, u)
+            v = cross3(axis, u)
             rel = pts[fitted] - current.center
             section = np.stack([dot3(rel, u), dot3(rel, v)], axis=1)
             circle = (_geometric_fit(section, np.zeros(2), current.radius) if rays is None else
@@ -585,15 +615,15 @@ def _cylinder_proposals(pts: np.ndarray, nrm: np.ndarray, center: np.ndarray, ax
         a = -a
     if a @ axis < math.cos(math.radians(15.0)):
         a = axis
-    u = np.cross(a, [1.0, 0.0, 0.0] if abs(a[0]) < 0.9 else [0.0, 1.0, 0.0])
+    u = cross3(a, [1.0, 0.0, 0.0] if abs(a[0]) < 0.9 else [0.0, 1.0, 0.0])
     u /= np.linalg.norm(u)
-    v = np.cross(a, u)
+    v = cross3(a, u)
     rel = pts - center
     xy = np.stack([dot3(rel, u), dot3(rel, v)], axis=1)
     c2 = _normal_lines_center(xy, np.stack([dot3(nrm, u), dot3(nrm, v)], axis=1))
     proposals = []
     if c2 is not None:
-        r2 = float(np.median(np.linalg.norm(xy - c2, axis=1)))
+        r2 = float(np.median(norms(xy - c2)))
         proposals.append((center + c2[0] * u + c2[1] * v, a, r2))
     return proposals
 
@@ -604,7 +634,7 @@ def _sphere_proposals(pts: np.ndarray, nrm: np.ndarray, center: np.ndarray, radi
     start = (center, radius)
     if c2 is not None:
         c2 = c2 + center
-        r2 = float(np.median(np.linalg.norm(pts - c2, axis=1)))
+        r2 = float(np.median(norms(pts - c2)))
         proposals.append((c2, None, r2))
         start = (c2, r2)
     result = _geometric_fit(pts, *start)
@@ -616,7 +646,7 @@ def _sphere_proposals(pts: np.ndarray, nrm: np.ndarray, center: np.ndarray, radi
 def _normal_lines_center(pts: np.ndarray, nrm: np.ndarray) -> np.ndarray | None:
     """The point nearest (least squares) to all lines ``p + s n``: a sphere's centre, or a cylinder's axis in
     the plane perpendicular to it. Linear, and well conditioned even on a short arc."""
-    lengths = np.linalg.norm(nrm, axis=1)
+    lengths = norms(nrm)
     ok = lengths > 0.3
     if ok.sum() < 3:
         return None
@@ -682,7 +712,7 @@ def _depth_band(pts: np.ndarray, nrm: np.ndarray, rays: np.ndarray, fit: ShapeFi
     else:
         section = rel - dot3(rel, fit.axis)[:, None] * fit.axis
         ray_section = rays - dot3(rays, fit.axis)[:, None] * fit.axis
-    dist = np.maximum(np.linalg.norm(section, axis=1), 1e-12)
+    dist = np.maximum(norms(section), 1e-12)
     facing = np.einsum("ij,ij->i", nrm, section) / dist > _BAND_COS
     if fit.axis is not None:  # no farther along the axis than the inliers reach
         along = dot3(rel, fit.axis)
@@ -700,7 +730,7 @@ def _depth_band(pts: np.ndarray, nrm: np.ndarray, rays: np.ndarray, fit: ShapeFi
 def _unit_rays(pts: np.ndarray, origin: np.ndarray) -> np.ndarray | None:
     """Unit directions from the sensor to each point; None when a point sits on the sensor."""
     rays = pts - origin
-    lengths = np.linalg.norm(rays, axis=1)
+    lengths = norms(rays)
     if np.any(lengths < 1e-9):
         return None
     return rays / lengths[:, None]

@@ -4,7 +4,8 @@ They keep the simulator's rules (:mod:`navigation.move_base`, :mod:`navigation.d
 a new goal preempts the running one, a cancelled goal ends at once as PREEMPTED (the server is told; what it
 answers later is ignored), results reach the caller through the clock, never from inside ``send_goal``, and the
 same events are written: ``goal_sent`` and ``goal_result`` for move_base goals, ``action_result`` for the dock
-and undock actions.
+and undock actions. A goal the server does not acknowledge in time, or whose server goes silent, ends ABORTED
+with the reason (:mod:`objrec_apps.ros1_actions`), and the patrol goes on as for any aborted goal.
 """
 
 from __future__ import annotations
@@ -65,7 +66,8 @@ class LiveMoveBase:
                            "orientation": {"x": qx, "y": qy, "z": qz, "w": qw}}}
         goal = LiveGoal(number, name, pose, "", callback)
         self.goal = goal
-        goal.ros_id = self.action.send({"target_pose": target}, lambda s, t: self._finish(goal, s, t))
+        label = f"goal {number} ({name})" if name else f"goal {number}"
+        goal.ros_id = self.action.send({"target_pose": target}, lambda s, t: self._finish(goal, s, t), label)
         self.events.emit("goal_sent", goal_id=number, name=name, **pose.as_dict(), ros_id=goal.ros_id)
         return number
 
@@ -131,7 +133,7 @@ class LiveDock(_ActionRun):
             self.clock.call_later(0.0, lambda: self._finish(
                 run, GoalStatus.ABORTED, f"no docking action server at {self.action.namespace}"))
             return
-        self._ros_id = self.action.send({}, lambda s, t: self._finish(run, s, t))
+        self._ros_id = self.action.send({}, lambda s, t: self._finish(run, s, t), "the docking goal")
 
     def cancel(self) -> None:
         if self.active:

@@ -199,13 +199,18 @@ class DetectionDirector(_Director):
         if not isinstance(frame, Frame):
             frame = Frame(frame, index=self._seq)
         system = self.system
-        result = system.process(frame.data, self.keep_stages)
-        array = system.object_array_type(self._header(frame), result.objects)
+        if self.keep_stages or self.outcome_sinks:
+            result = system.process(frame.data, self.keep_stages)
+            objects, stages, array_type = result.objects, result.stages, system.object_array_type
+        else:  # nothing asks for stages or reasons: the objects alone, with no record made to be thrown away
+            plan = system.plan  # taken once: the modules run and the message type belong together
+            result, objects, stages, array_type = None, plan.detect_objects(frame.data), None, plan.array_type
+        array = array_type(self._header(frame), objects)
         for sink in self.sinks:
             sink(array)
         for annotation_sink in self.annotation_sinks:
-            annotation_sink(frame, array, result.stages)
-        if self.outcome_sinks:
+            annotation_sink(frame, array, stages)
+        if result is not None and self.outcome_sinks:
             outcomes = [DetectorOutcome(d.id, d.type_name, n, None if n else result.reasons.get(d.id))
                         for d, n in result.found]
             for outcome_sink in self.outcome_sinks:

@@ -50,8 +50,8 @@ class Detections(list):  # type: ignore[type-arg]
     __slots__ = ("details", "reason")
 
     def __init__(self, objects: Iterable[Any] = (), reason: str | None = None, details: Any = None) -> None:
-        super().__init__(objects)
-        self.reason: str | None = None if len(self) else reason
+        list.__init__(self, objects)  # not super(): one per detector and frame, and the lookup costs as much
+        self.reason: str | None = None if self else reason
         self.details: Any = details
 
     def __repr__(self) -> str:

@@ -57,6 +57,16 @@ class _Plan:
         array_type = detectors[0].object_array_type if detectors else DetectedObjectArray
         return cls(tuple((isinstance(m, Filter), m) for m in modules), array_type)
 
+    def detect_objects(self, data: Any) -> list[Any]:
+        """The objects this plan's detectors find in ``data`` (see ``RecognitionSystem.detect_objects``)."""
+        objects: list[Any] = []
+        for is_filter, m in self.steps:
+            if is_filter:
+                data = m.filter(data)
+            else:
+                objects += m.detect(data)
+        return objects
+
 
 class RecognitionSystem(Subject):
     """Filters transform the frame in order; each detector finds objects in the frame as it stands at
@@ -211,6 +221,19 @@ class RecognitionSystem(Subject):
         return f"{base}_{n}"
 
     # -- processing -----------------------------------------------------------------------------------
+    def detect_objects(self, data: Any) -> list[Any]:
+        """The objects ``process(data).objects`` holds, without the per-detector counts and reasons: a headless
+        run where nothing asks why a frame is empty makes no record it would throw away (a handful of Python
+        calls a frame, which show against bare OpenCV on small frames: benchmarks/bench_2d.py)."""
+        return self._plan.detect_objects(data)
+
+    @property
+    def plan(self) -> _Plan:
+        """The pipeline as a frame runs it (``steps``, ``array_type``, ``detect_objects``): replaced whole when
+        the pipeline changes, so a caller that takes it once per frame gets modules and message type that
+        belong together."""
+        return self._plan
+
     def process(self, data: Any, keep_stages: bool = False) -> PipelineResult:
         """Run the pipeline on one frame's data.
 

@@ -3,7 +3,7 @@ writing it failed, so that a full disk neither hangs the command nor leaves a fi
 
 rerun-sdk 0.41 writes the file on a thread of its own. When that thread cannot write its first bytes (a disk
 already full), ``RecordingStream.save`` can wait for it for ever inside native code, where no signal reaches
-Python (issue 27: ``--rerun`` onto a full disk hung past 60 s and left its file). So before rerun is given the
+Python (``--rerun`` onto a full disk hung past 60 s and left its file). So before rerun is given the
 file, :class:`RrdFile` writes :data:`PROBE_BYTES` into it itself: a disk that cannot take them is one
 ``strictio.OutputError`` at once, and rerun's writer is never started. A disk that fills up later is
 reported by rerun at the next flush (``rerunio.Recorder`` flushes every few steps).

@@ -8,7 +8,7 @@ each other), on stdout as one JSON line per screenshot. Anything on stderr is a 
 Steps (``--only`` picks some): every shipped system and the empty window on the demo, each at 1920x1080, then
 1280x800 (a common laptop), then 1920x1080 again; the shipped shape system on the real mug scan turned with the
 mouse and a 3D parameter changed; a video paused, sought far (past what a truncated file decodes) and near,
-looped and played to its end; the HSV eyedropper dragged loosely round a blue candy on smarties.png. The data
+looped, played to its end and restarted; the HSV eyedropper dragged loosely round a blue candy on smarties.png. The data
 outside the repository (``../shared/data``) is skipped where absent.
 """
 
@@ -190,9 +190,16 @@ class Walk:
         self.shot(gui, "video-looped")
         gui.seek_bar.loop_box.setChecked(False)
         shots.wait_until(self.app, lambda: gui.worker.ended, timeout=120)
+        bar = gui.source_bar
         self.shot(gui, "video-ended", lambda: {"counter": gui.seek_bar.counter_text,
-                                               "rates": gui.source_bar.fps_label.text().strip(),
-                                               "source": gui.source_bar.name_label.text().strip()})
+                                               "rates": bar.fps_label.text().strip(),
+                                               "source": bar.name_label.text().strip(),
+                                               "button": bar.pause_action.text(),
+                                               "status": gui.statusBar().currentMessage()})
+        bar.pause_action.trigger()  # Restart: from the first frame again
+        shots.wait_until(self.app, lambda: not bar.ended and gui.last_results.frame.index >= 5, timeout=60)
+        self.shot(gui, "video-restarted", lambda: {"counter": gui.seek_bar.counter_text,
+                                                   "button": bar.pause_action.text()})
         shots.close(gui)
 
     def smarties(self) -> None:

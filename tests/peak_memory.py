@@ -9,7 +9,7 @@ child's ``ru_maxrss`` starts from the high-water mark of the test process it was
 ``exec``), so after a test run has loaded Qt or Open3D every child seems to use 500 MB. This small process is
 forked from the test and forks the command in turn: the command's own peak starts from this process's few
 megabytes. The CPU time is user + system time of the command and of every child it waited for, from the same
-``wait4``: tests bound that, never wall-clock time, which a busy machine stretches (issue 21). Signals it gets are
+``wait4``: tests bound that, never wall-clock time, which a busy machine stretches. Signals it gets are
 passed on; it exits as the command did (the same code, or the same signal).
 """
 

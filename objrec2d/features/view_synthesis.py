@@ -122,3 +122,19 @@ def tilted_features(extractor: Any, gray: np.ndarray, mask: np.ndarray, view_til
         keypoints.extend(back[i] for i in inside)
         descriptors.append(described[inside])
     return tuple(keypoints), descriptors
+
+
+def turned_homography(size: tuple[int, int], angle_deg: float, distance: float, width_m: float = 0.8,
+                      focal: float = 525.0, principal: tuple[float, float] = (320.0, 240.0)) -> np.ndarray:
+    """Target pixel -> frame pixel for a flat target ``size`` (width, height) px printed ``width_m`` wide,
+    ``distance`` m in front of a pinhole camera (``focal`` px, ``principal`` point) and turned ``angle_deg``
+    about its vertical axis: how a camera at its height sees it from that far round to the side, the exact
+    perspective view the simulated tilts approximate (the inspection lab's Xtion and poster by default)."""
+    width, height = size
+    a = math.radians(angle_deg)
+    camera = np.array([[focal, 0.0, principal[0]], [0.0, focal, principal[1]], [0.0, 0.0, 1.0]])
+    turn = np.array([[math.cos(a), 0.0, math.sin(a)], [0.0, 1.0, 0.0], [-math.sin(a), 0.0, math.cos(a)]])
+    metres = width_m / width
+    to_plane = np.array([[metres, 0.0, -metres * width / 2], [0.0, metres, -metres * height / 2], [0.0, 0.0, 1.0]])
+    matrix = camera @ np.column_stack([turn[:, 0], turn[:, 1], [0.0, 0.0, distance]]) @ to_plane
+    return matrix / matrix[2, 2]

@@ -54,7 +54,7 @@ from .quality_strip import QualityStrip
 from .recent_files import RecentFiles
 from .seek_bar import SeekBar
 from .selection_target import SelectionTarget, select_in
-from .source_bar import FrameRate, SourceBar
+from .source_bar import ENDED_HERE, FrameRate, SourceBar, ended_message
 from .stage_views import MODES, StageViews, stage_images
 from .status_line import MessageBar
 from .topic_chooser import with_topic
@@ -317,6 +317,7 @@ class DefinitionGUI(QMainWindow):
         self.source_bar.sourceRequested.connect(self.open_source)
         self.source_bar.pauseToggled.connect(self.set_paused)
         self.source_bar.stepRequested.connect(self.worker.step)
+        self.source_bar.restartRequested.connect(self.restart_source)
         self.source_bar.topicRequested.connect(self.open_topic)
         self.source_bar.folderUsed.connect(self.files.remember_folder)
         self.files.message.connect(self.show_message)
@@ -444,6 +445,25 @@ class DefinitionGUI(QMainWindow):
         self.worker.set_paused(paused)
         self.source_bar.set_paused(paused)
 
+    def restart_source(self) -> None:
+        """Play the source on screen again from its first frame (the source bar's Restart, once it ended): a
+        recording goes back to frame 0, any other source given by its spec (a camera, a live topic) is opened
+        again. It plays, not paused: Restart is a Play from the start."""
+        source = self.worker.source
+        if source is None:
+            return
+        facts = self.worker.facts
+        if facts is not None and facts.name == source.name and facts.seekable:
+            self.worker.seek(0)
+        elif self._source_spec is not None:
+            self.open_source(self._source_spec)
+        else:
+            self.show_message(f"{source.name} cannot be played again: open a source from the source bar",
+                              error=True)
+            return
+        self.set_paused(False)
+        self.show_message(f"{source.name}: playing again from the start")
+
     def _source_opened(self, name: str, kind: str) -> None:
         if kind:
             self._source_kind = kind
@@ -465,7 +485,7 @@ class DefinitionGUI(QMainWindow):
         self.source_bar.set_source_name(name, ended=True)
         self.seek_bar.source_ended()
         self._frames_stopped("ended")
-        self.show_message(f"{name} ended: parameter changes still apply to its last frame")
+        self.show_message(ended_message(name))
 
     def _frames_stopped(self, why: str) -> None:
         """No more frames come (paused, ended): the frames-shown rate says so instead of going stale."""
@@ -506,8 +526,11 @@ class DefinitionGUI(QMainWindow):
                 return
         # The source stops here, as at its end: the bars say so, not the rate of the last second's frames.
         source = self.worker.source
-        self.source_bar.set_source_name(source.name if source is not None else "", ended=True)
+        name = source.name if source is not None else ""
+        self.source_bar.set_source_name(name, ended=True)
         self._frames_stopped("ended")
+        if source is not None:  # the error stays the message; the status bar adds where that leaves the source
+            self.statusBar().showMessage(f"{ENDED_HERE}: {text}", 30000)
 
     def _follow_kind(self) -> None:
         """Show the page for the pipeline's kind; a spec waiting for a kind opens now, and a pipeline whose
@@ -581,6 +604,8 @@ class DefinitionGUI(QMainWindow):
         live = live_counts(self.worker.source)
         dropped = self.worker.dropped - (self._dropped_before if live is not None else 0)  # a topic's: its own
         stopped = "paused" if self.worker.paused else "ended" if self.worker.ended else ""
+        if self.source_bar.ended != self.worker.ended:  # sought or restarted after its end: it plays again
+            self.source_bar.set_ended(self.worker.ended)
         if stopped:
             self.frame_rate.reset()
         self.source_bar.set_rates(self.frame_rate.rate(), results.seconds * 1000, dropped, live, stopped)

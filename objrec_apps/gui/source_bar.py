@@ -1,6 +1,6 @@
 """Source controls: choose the demo, a camera, a file, a folder, a live topic or any source spec; pause, resume,
-single step; fps. The file dialog offers what the installed source types of the pipeline's kind read; a live
-topic is chosen in the window's File > Open topic dialog (``topicRequested``)."""
+single step, and restart a source that ended; fps. The file dialog offers what the installed source types of the
+pipeline's kind read; a live topic is chosen in the window's File > Open topic dialog (``topicRequested``)."""
 
 from __future__ import annotations
 
@@ -17,6 +17,20 @@ from objrec_core import source_entries, source_usage
 from .topic_chooser import is_live_spec
 
 KINDS = ("demo", "camera", "file", "folder", "topic", "spec")
+PAUSE_TIP = "Pause or resume the source (Space); parameter changes still apply"
+RESTART_TIP = ("The source ended: play it again from its first frame (Space); parameter changes still apply to the "
+               "last frame on screen")
+
+
+#: Put in the status bar before the error of a source that stopped at a frame it cannot read (the error is cut
+#: at the bar's right end, this is not).
+ENDED_HERE = "Ended (Restart plays it again from the start)"
+
+
+def ended_message(name: str) -> str:
+    """What the status bar says when a source gave its last frame: that it ended, and what the user can do now."""
+    return (f"{name} ended: Restart (Space) plays it again from the start; parameter changes still apply to the "
+            "frame on screen")
 
 
 def file_filter(kind: str | None) -> str:
@@ -78,6 +92,7 @@ class SourceBar(QToolBar):
     stepRequested = Signal()  # noqa: N815 - Qt's signal naming
     folderUsed = Signal(str)  # noqa: N815 - Qt's signal naming
     topicRequested = Signal()  # noqa: N815 - Qt's signal naming: list the live topics to choose one
+    restartRequested = Signal()  # noqa: N815 - Qt's signal naming: play the ended source again from its start
 
     def __init__(self, last_folder: Callable[[], str], parent: QWidget | None = None,
                  kind: Callable[[], str | None] = lambda: None) -> None:
@@ -112,10 +127,14 @@ class SourceBar(QToolBar):
         self.name_label.setMinimumWidth(120)
         self.addWidget(self.name_label)
         self.addSeparator()
+        #: Whether the source on screen ended (its last frame shown, no more to come), and whether it is paused.
+        self.ended = False
+        self._paused = False
+        self._name = ""
         self.pause_action = QAction("Pause", self)
         self.pause_action.setCheckable(True)
         self.pause_action.setShortcut(QKeySequence("Space"))
-        self.pause_action.setToolTip("Pause or resume the source (Space); parameter changes still apply")
+        self.pause_action.setToolTip(PAUSE_TIP)
         self.pause_action.toggled.connect(self._pause_toggled)
         self.addAction(self.pause_action)
         self.step_action = QAction("Step", self)
@@ -162,20 +181,39 @@ class SourceBar(QToolBar):
             self.sourceRequested.emit(spec)
 
     def _pause_toggled(self, paused: bool) -> None:
-        self.pause_action.setText("Resume" if paused else "Pause")
+        if self.ended:  # nothing left to pause or resume: the button offers the start again
+            self._show_play_state()
+            self.restartRequested.emit()
+            return
+        self._paused = paused
+        self._show_play_state()
         self.pauseToggled.emit(paused)
 
+    def _show_play_state(self) -> None:
+        """The play/pause button as the source stands: Pause while it plays, Resume while paused, and Restart
+        once it ended (a Pause there would pause nothing). Unchecked while ended, so any press restarts."""
+        self.pause_action.blockSignals(True)
+        self.pause_action.setChecked(self._paused and not self.ended)
+        self.pause_action.blockSignals(False)
+        self.pause_action.setText("Restart" if self.ended else "Resume" if self._paused else "Pause")
+        self.pause_action.setToolTip(RESTART_TIP if self.ended else PAUSE_TIP)
+
     def set_paused(self, paused: bool) -> None:
-        if self.pause_action.isChecked() != paused:
-            self.pause_action.blockSignals(True)
-            self.pause_action.setChecked(paused)
-            self.pause_action.setText("Resume" if paused else "Pause")
-            self.pause_action.blockSignals(False)
+        self._paused = paused
+        self._show_play_state()
+
+    def set_ended(self, ended: bool) -> None:
+        """The source on screen ended (no more frames; its last one stays on screen), or plays again (a seek or
+        a restart): the name says "(ended)" and the play/pause button offers Restart while it has."""
+        self.ended = ended
+        self.name_label.setText(f" {self._name} (ended) " if ended else f" {self._name} ")
+        self._show_play_state()
 
     def set_source_name(self, name: str, ended: bool = False) -> None:
         """Show the open source's own name (``demo:seed=3``, a file's path), and set the chooser to what it
         is, so the bar never says "demo" with a file open (however the source was opened)."""
-        self.name_label.setText(f" {name} (ended) " if ended else f" {name} ")
+        self._name = name
+        self.set_ended(ended)
         self.name_label.setToolTip(name)
         chosen = chooser_kind(name)
         if self.kind.currentText() != chosen:

@@ -205,6 +205,12 @@ class ProcessingWorker(QObject):
         return self._source
 
     @property
+    def facts(self) -> SourceFacts | None:
+        """The open source's length, rate and whether it seeks, read once in this thread when it opened (None
+        before a source opened, or when the source could not say)."""
+        return self._facts
+
+    @property
     def source_kind(self) -> str | None:
         """The data kind of the source's frames, where known."""
         return self._source_kind

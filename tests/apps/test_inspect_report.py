@@ -1,4 +1,4 @@
-"""The inspection report a person can trust (issue 25): every expected object is listed, a run cut short
+"""The inspection report a person can trust: every expected object is listed, a run cut short
 says why an object was not checked, the Markdown and the JSON agree, and a 2D detection (placed on the face
 the camera sees) is lifted to the object's centre before it is judged."""
 

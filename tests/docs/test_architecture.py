@@ -1,4 +1,4 @@
-"""docs/architecture.md's table of packages and their imports matches the code (issue 21), and the layers hold.
+"""docs/architecture.md's table of packages and their imports matches the code, and the layers hold.
 
 Every ``import`` of every module of a package (at the top or inside a function: a lazy import is still a
 dependency) is read with ``ast``; the table's third column lists, in backticks, the project packages each one

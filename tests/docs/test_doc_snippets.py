@@ -1,4 +1,4 @@
-"""The code of README.md and docs/*.md runs, and prints what the pages show (issue 21): a default or an output
+"""The code of README.md and docs/*.md runs, and prints what the pages show: a default or an output
 that a page states cannot drift from the code unnoticed.
 
 Each ```python block is its own test case, ``docs/page.md:LINE``, run in a child process (tests/docs/

@@ -1,4 +1,4 @@
-"""docs/modules.md is what scripts/make_module_reference.py makes of the declarations today (issue 21)."""
+"""docs/modules.md is what scripts/make_module_reference.py makes of the declarations today."""
 
 from __future__ import annotations
 

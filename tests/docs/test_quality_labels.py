@@ -1,4 +1,4 @@
-"""The hand-made label files of tests/data/labels, and docs/quality.md's real-data figures (issue 23).
+"""The hand-made label files of tests/data/labels, and docs/quality.md's real-data figures.
 
 The label files read with the kinds' own readers and say what their README says; where ../shared/data is present,
 each label lies on its picture or scan (a candy outline holds that candy's colour, the box outline the box, the

@@ -23,7 +23,7 @@ def record_demo(project_root, path, frames):
 
 def test_a_bag_of_two_topics_plays_the_one_of_the_pipelines_kind_without_asking(make_gui, qtbot, project_root,
                                                                                  tmp_path):
-    """Issue 26 item 14: an image pipeline is not offered the PointCloud2 topic; its only image topic plays."""
+    """An image pipeline is not offered the PointCloud2 topic; its only image topic plays."""
     bag = tmp_path / "demo.bag"
     assert record_demo(project_root, bag, 4) == {"/camera/color/image_raw": 4, "/camera/depth/points": 4}
     gui = make_gui(build_system(project_root / "params" / "hsv_demo.yaml"), source="demo:frames=1")

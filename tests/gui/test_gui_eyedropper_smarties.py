@@ -1,4 +1,4 @@
-"""The eyedropper on a real photo (issue 26 item 4): smarties.png, each of its 14 candies picked with a loose
+"""The eyedropper on a real photo: smarties.png, each of its 14 candies picked with a loose
 rectangle (its labelled box grown by a fifth on every side, so white background, the candy's highlights and
 sometimes a neighbour are inside). The mask of the HSV filter set from the pick is compared with every
 labelled candy (tests/data/labels/smarties.coco.json).

@@ -1,4 +1,4 @@
-"""Issue 26 item 13: replacing a running 3D pipeline by a 2D file never feeds a cloud to the 2D pipeline."""
+"""Replacing a running 3D pipeline by a 2D file never feeds a cloud to the 2D pipeline."""
 
 from __future__ import annotations
 
@@ -41,7 +41,7 @@ def test_opening_a_2d_file_over_a_running_3d_pipeline_processes_no_cloud_in_it(m
 
 @pytest.mark.timeout(300)
 def test_a_pipeline_replaced_while_a_cloud_waits_for_the_processing_lock_skips_it(make_gui, qtbot, project_root):
-    """The race of item 13 made certain: the worker has checked that the frame's kind is the pipeline's and
+    """The replacement race made certain: the worker has checked that the frame's kind is the pipeline's and
     waits for the processing lock, which the window holds while it replaces the pipeline by a 2D one."""
     from objrec_core import build_system
 

@@ -1,4 +1,4 @@
-"""Issue 26 items 10 and 11: a folder's unreadable files are reported in the message area; status bar
+"""A folder's unreadable files are reported in the message area; status bar
 messages are cut at a word, never under the pixel read-out; the frames-shown rate says when frames stopped."""
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Issue 26 items 7 and 8: a source opened while paused shows its first frame; a click on the seek bar goes
+"""A source opened while paused shows its first frame; a click on the seek bar goes
 where it points; after a failed seek the thumb and the counter agree; a truncated video offers only its
 decodable frames and Loop starts it again."""
 
@@ -46,7 +46,7 @@ def truncated_video(path: Path, frames: int = 40, keep: float = 0.6) -> tuple[Pa
     return path, decodable
 
 
-# -- item 7 -----------------------------------------------------------------------------------------------------
+# -- opened while paused ----------------------------------------------------------------------------------------
 @pytest.mark.timeout(120)
 def test_starting_paused_shows_the_first_frame(make_gui, qtbot):
     """objrec-define --paused: paused on the first frame, not on "No frame yet"."""
@@ -76,7 +76,7 @@ def test_a_source_opened_while_paused_shows_its_first_frame(make_gui, qtbot, tmp
     assert stepped.args[0].results.frame.index == 1  # Step goes on from the frame on screen
 
 
-# -- item 8 -----------------------------------------------------------------------------------------------------
+# -- the seek bar -----------------------------------------------------------------------------------------------
 def groove_point(slider, value: int) -> QPoint:
     """Where on ``slider`` the thumb's centre is for ``value`` (a click there goes to ``value``)."""
     option = QStyleOptionSlider()

@@ -1,4 +1,4 @@
-"""Issue 26 item 14's smaller points: recent files (File > Open Recent, kept in QSettings); the description
+"""Smaller points of the window: recent files (File > Open Recent, kept in QSettings); the description
 box wraps; mnemonics in the dialogs; the no-selection message names the eyedropper. (The bag dialog offering
 only the pipeline's kind of topics: tests/gui/test_gui_bags.py; a tuned system's description:
 tests/gui/test_gui_unsaved.py.)"""

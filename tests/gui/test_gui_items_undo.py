@@ -1,4 +1,4 @@
-"""Issue 26 items 6 and 9: Quit then Discard ends without a traceback; the Edit menu names the value a
+"""Quit then Discard ends without a traceback; the Edit menu names the value a
 slider drag ended on; Ctrl+Z undoes while a spin box has the keyboard focus."""
 
 from __future__ import annotations

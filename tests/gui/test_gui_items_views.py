@@ -1,4 +1,4 @@
-"""Issue 26 item 12: on a large image (55 MP) the detections stay visible when the view scales it down."""
+"""On a large image (55 MP) the detections stay visible when the view scales it down."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Issue 26, item 1: every shipped system, and a 3D pipeline on the real mug scan, fits a 1280x800 laptop
+"""Every shipped system, and a 3D pipeline on the real mug scan, fits a 1280x800 laptop
 screen and a 1920x1080 one: the window's frame and the parameter panel lie within the screen, the panel
 scrolls down rather than sideways, and after a 3D pipeline a 2D one lets the window shrink again.
 

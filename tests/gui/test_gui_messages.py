@@ -82,4 +82,4 @@ def test_a_selection_no_detector_takes_says_so(make_gui, qtbot):
     assert message == ("selection 40×30 at (10, 10) did nothing: no detector in the pipeline takes selections "
                        "(blobs ignores them); add one that learns a target (a feature detector) from the "
                        "Pipeline menu; or, to set an HSV filter's ranges from the pixels in the rectangle, drag "
-                       "with the HSV eyedropper (Ctrl+E, or hold Shift while dragging)")  # issue 26 item 14
+                       "with the HSV eyedropper (Ctrl+E, or hold Shift while dragging)")  # names the eyedropper

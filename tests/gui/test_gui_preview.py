@@ -1,4 +1,4 @@
-"""Issue 26, item 3: tuning a slow 3D pipeline shows a coarse preview (a thinned cloud) first, then the full
+"""Tuning a slow 3D pipeline shows a coarse preview (a thinned cloud) first, then the full
 result, and a result of an older parameter set is never shown over a newer one. Latency is the benchmark's
 (benchmarks/bench_gui.py: first result within 200 ms on the mug scan); these tests count what was shown."""
 

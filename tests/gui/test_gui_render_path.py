@@ -1,4 +1,4 @@
-"""Issue 26, item 2: the 3D view picks the faster renderer for the machine (the OpenGL renderer's name:
+"""The 3D view picks the faster renderer for the machine (the OpenGL renderer's name:
 a software rasteriser such as Mesa's llvmpipe -> the NumPy renderer, a graphics card -> OpenGL), the
 choice can be overridden (OBJREC_RENDERER), and a large cloud is thinned while the camera moves and drawn
 whole once it stops. Frame rates are the benchmark's (benchmarks/bench_gui.py); these tests count frames."""

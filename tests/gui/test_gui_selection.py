@@ -186,6 +186,6 @@ def test_selections_reach_every_registered_callback(make_gui, qtbot):
     start = view.to_widget(QPointF(10, 10))
     drag(view, start, view.to_widget(QPointF(50, 40)))
     assert received and received[0][0] == Rect(10, 10, 40, 30)
-    # blobs ignores selections: the default callback says so rather than "taken by blobs" (issue 12)
+    # blobs ignores selections: the default callback says so rather than "taken by blobs"
     qtbot.waitUntil(lambda: "no detector in the pipeline takes selections (blobs ignores them)"
                     in gui.statusBar().currentMessage(), timeout=HANG_GUARD_MS)

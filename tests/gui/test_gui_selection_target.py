@@ -1,4 +1,4 @@
-"""Issue 26 item 5: two feature detectors in one pipeline get different targets. A selection goes to ONE
+"""Two feature detectors in one pipeline get different targets. A selection goes to ONE
 detector (the one whose panel was used last, else the user's choice), as one undo step."""
 
 from __future__ import annotations

@@ -120,7 +120,7 @@ def test_the_description_follows_the_values_unless_it_is_the_users(make_gui, mon
 
 
 def test_a_shipped_description_is_the_authors_own_text_until_the_system_is_tuned(make_gui, monkeypatch, tmp_path):
-    """Issue 26 item 14: a system started from a shipped file (objrec-define hsv) and tuned is no longer what
+    """A system started from a shipped file (objrec-define hsv) and tuned is no longer what
     the shipped description says; saved untuned, the author's text stays."""
     gui = hsv_window(make_gui)
     gui.files.set_origin("hsv_demo.yaml")  # what objrec-define does for a shipped system

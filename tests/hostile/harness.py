@@ -1,10 +1,10 @@
-"""The one child runner of the hostile-input tests: run a command as a child process and measure what issue 14
-bounds: its exit code and stderr lines, its CPU time, its own peak memory, and the files it left in its working
+"""The one child runner of the hostile-input tests: run a command as a child process and measure what
+they bound: its exit code and stderr lines, its CPU time, its own peak memory, and the files it left in its working
 folder.
 
 The time bound is CPU time (user + system, of the command and every child it waited for), never wall-clock: on a
 busy shared machine a command that needs 1 s of CPU may take 20 s of wall time, and "refused within 10 s" is a
-promise about the work the command does, not about the machine's load (issue 21). Wall-clock is only a hang
+promise about the work the command does, not about the machine's load. Wall-clock is only a hang
 guard of minutes. The peak memory and the CPU time are the command's own, reported by tests/peak_memory.py,
 which runs it (``ru_maxrss`` of a child forked straight from the test would start at the test process's own
 high-water mark). A command that outgrows :data:`MEMORY_CEILING_MB` (polled from ``/proc/<pid>/status``), spends
@@ -299,7 +299,7 @@ def outside(outcome: Outcome, outputs: Iterable[str]) -> list[str]:
 
 
 def assert_refused(outcome: Outcome, names: str | Sequence[str], outputs: Iterable[str] = ()) -> None:
-    """Issue 14's refusal: exit code 2, exactly one non-empty stderr line naming ``names`` (each; a path is
+    """The expected refusal: exit code 2, exactly one non-empty stderr line naming ``names`` (each; a path is
     matched by its basename), no traceback, no control character, within the time and memory bounds, nothing
     written but ``outputs``. Every problem is listed at once."""
     problems = bounded(outcome)

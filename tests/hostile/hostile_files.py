@@ -1,4 +1,4 @@
-"""Small code that makes the hostile files of issue 14: decompression bombs, lying headers, YAML bombs, broken
+"""Small code that makes hostile input files: decompression bombs, lying headers, YAML bombs, broken
 clouds. Each file is small on disk; what makes it hostile is what it claims.
 """
 

@@ -1,4 +1,4 @@
-"""Small code that makes the hostile recordings of issue 27: compression bombs in every place a recording
+"""Small code that makes hostile recordings: compression bombs in every place a recording
 compresses (a ROS 1 bz2 or lz4 chunk, an MCAP zstd or lz4 chunk, a ROS 2 per-message zstd payload, a
 file-compressed ROS 2 bag), embedded definitions that lie about a field's type, and ``metadata.yaml`` fields of
 the wrong kind.

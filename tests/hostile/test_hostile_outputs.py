@@ -1,7 +1,7 @@
-"""Issue 27, outputs: no output replaces an input, a read-only file (even as root), a FIFO or what lies outside
+"""Outputs: no output replaces an input, a read-only file (even as root), a FIFO or what lies outside
 its folder; a full disk leaves no unreadable file and no hang; no text crashes OpenCV's drawing or a ROS writer.
 
-One row per case of the issue, each run as a user runs it, in a child process (tests/hostile/harness.py):
+One row per case, each run as a user runs it, in a child process (tests/hostile/harness.py):
 exit code 2, one stderr line naming the file or option, the child's CPU time under 10 s (wall-clock only as a
 hang guard), its own peak memory under 500 MB, nothing written outside the declared outputs, and every input
 byte-identical after the run (compared by content, link and mode).

@@ -1,4 +1,4 @@
-"""Issue 27, recordings, case by case, through the real commands in a child process (the hostile table's harness):
+"""Hostile recordings, case by case, through the real commands in a child process (the hostile table's harness):
 compression bombs in every place a recording compresses, through objrec-detect, --list-topics and objrec-batch;
 embedded definitions that lie; metadata.yaml fields of the wrong kind. A refusal is exit code 2 and one stderr line
 naming the recording, within 10 s of CPU and 500 MB of the command's own memory, nothing written, the input

@@ -1,4 +1,4 @@
-"""Issue 27, the runs part, case by case: batch (temp folder, worker deaths, schedulers, output paths, names),
+"""Hostile runs, case by case: batch (temp folder, worker deaths, schedulers, output paths, names),
 inspection (frames of a visit, task counts, laps, start pose), YAML speed, navigation readers' memory and
 messages, missing extras, broken plug-ins and a task's delayed failure. Each case runs the real command in a
 child process (tests/hostile/harness.py): exit code, one stderr line naming the file or option, the child's CPU

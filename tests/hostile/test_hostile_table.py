@@ -1,6 +1,6 @@
-"""Issue 14, case by case: every hostile or broken input the issue lists, given to the real commands in a child
+"""Hostile inputs, case by case: every hostile or broken input the rules list, given to the real commands in a child
 process. A refusal is exit code 2 and one stderr line naming the file (or option), no traceback, within 10 s and
-500 MB, nothing written but the declared output; the valid inputs the issue lists must be accepted.
+500 MB, nothing written but the declared output; the valid inputs the rules list must be accepted.
 
 Each case builds its hostile file in a fresh folder (the child's working folder) from a few lines of code; the
 valid parts of each command line are the shipped systems, map and poses.

@@ -1,4 +1,4 @@
-"""Issue 21, "Declared fields": every reader names a wrong value deep in its file the same way.
+"""Declared fields: every reader names a wrong value deep in its file the same way.
 
 One table: for each file objrec reads (world, map, goal poses, mission, the task options inside a mission, a
 parameter file) a file with one wrong value in a nested record inside a list, and the exact one-line error it

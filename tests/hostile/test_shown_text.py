@@ -1,4 +1,4 @@
-"""Issue 21: untrusted text reaches the terminal only escaped, through the one function strictio.shown.
+"""Untrusted text reaches the terminal only escaped, through the one function strictio.shown.
 
 The regression: ``objrec-detect --source $'zz\\u202eabc:1'`` wrote a raw right-to-left override to the
 terminal, so the error line read ``zz1:cba``. The commands are run as a user runs them, in a child process.

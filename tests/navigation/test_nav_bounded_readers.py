@@ -1,4 +1,4 @@
-"""Issue 27 in the navigation readers: a map costs its int8 grid, not float64 copies of its image, with exactly
+"""Bounded navigation readers: a map costs its int8 grid, not float64 copies of its image, with exactly
 the occupancy map_server gives; a microscopic resolution is refused naming the file; posters are bounded and kept
 small; a start pose inside a world object names it."""
 

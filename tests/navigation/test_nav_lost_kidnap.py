@@ -160,7 +160,7 @@ def test_a_turn_is_covered_by_twelve_views_of_58_degrees_and_not_by_three():
     assert latest_turn(views, 5.0, math.radians(58)) == views[5:]  # not a turn: what there is since t = 5
 
 
-@pytest.mark.parametrize(("field", "value"), [("accept", 1.5), ("seeds", 0), ("range_tolerance", -0.1)])
+@pytest.mark.parametrize(("field", "value"), [("accept", 1.5), ("min_seeds", 0), ("range_tolerance", -0.1)])
 def test_search_parameters_are_checked(field, value):
     with pytest.raises(ValueError, match=f"global search {field} must be"):
         GlobalSearchParams(**{field: value})

@@ -1,5 +1,5 @@
 """People who are solid: walkers never pass through the robot, every overlap is a counted collision, and the
-controller neither drives into a walker nor forgets one still standing in view (issue 25).
+controller neither drives into a walker nor forgets one still standing in view.
 
 All in simulated time: a run is deterministic per seed.
 """

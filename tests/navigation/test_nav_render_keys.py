@@ -12,6 +12,7 @@ from navigation.render import (
     BELIEVED_COLOUR,
     DASH,
     GAP,
+    ROBOT_COLOUR,
     LocalizationMarks,
     RunPicture,
     draw_dashed,
@@ -96,3 +97,15 @@ def test_zones_have_legend_entries_only_when_given(keepout, speed):
             key = np.all(img[:90, :40] == colour, axis=-1).sum()  # the swatch beside the key's text, top left
             assert key >= 60, colour
     assert zone_legend(None) == []
+
+
+def test_the_robots_orange_ring_has_a_key_entry_in_stills_and_frames():
+    """The robot is drawn as an orange ring with a heading line; the key names it with a patch of that colour,
+    in the still (where it ends) and in every frame (where it is now), and only when a robot is drawn."""
+    room = free_room()
+    picture = RunPicture(room, [(0.0, 1.0, 1.0, 0.0), (1.0, 3.0, 2.0, 0.5)], [], caption="c")
+    for img in (render_still(picture), next(iter(render_frames(picture, max_side=400)))):
+        swatch = np.all(img[:60, :40] == ROBOT_COLOUR, axis=-1).sum()  # the key's patch, top left, under "c"
+        assert swatch >= 60
+    nothing = render_still(RunPicture(room, [], [], caption="c"))
+    assert np.all(nothing == ROBOT_COLOUR, axis=-1).sum() == 0  # no robot drawn, no key entry for it

@@ -1,4 +1,4 @@
-"""Monitors in every state (issue 25): a laptop that dies while the robot charges on its dock ends the run with
+"""Monitors in every state: a laptop that dies while the robot charges on its dock ends the run with
 that reason, and an empty robot battery is named as such, not as a goal that made no progress."""
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Hostile and degenerate point clouds (issue 14): refused in one line naming the file and what is wrong, or, when
+"""Hostile and degenerate point clouds: refused in one line naming the file and what is wrong, or, when
 valid, handled in bounded time. Files are built in tmp_path from a few lines each; a header that claims
 gigabytes needs only a few bytes.
 

@@ -1,4 +1,4 @@
-"""The connected pieces of a fit's inliers in NumPy (issue 24, speed): the same pieces as SciPy's sparse graph,
+"""The connected pieces of a fit's inliers in NumPy (for speed): the same pieces as SciPy's sparse graph,
 without its conversions on every fit judged."""
 
 from __future__ import annotations

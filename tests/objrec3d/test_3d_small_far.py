@@ -3,12 +3,14 @@ detector; 0.6-3 m, 1.5 mm x z^2 depth noise, flying pixels, standing and lying c
 
 Recall by visible-point band, organized and unorganized (the same points without their grid), within
 5 mm / 3 mm / 2 degrees as tests/objrec3d/test_3d_scenes.py; a false object is a detection near no object.
-Figures (40 scenes, 2026-11-26, the tree as shipped), shipped defaults: points >= 300 organized 87/114 (76 %),
-unorganized 90/114 (79 %), no false object; the 600-1,500 band organized 34/38 (35/38 before the visible-arc
-checks that refuse flat-sided objects as cylinders: one real cylinder of that band is now refused with them).
-With the segment-then-fit pass (``segment_noise`` 0.0015, ``cluster_fit``): organized 95/114 (83 %),
-unorganized 100/114 (88 %), beyond 2 m 24 of 36 (16 without), but 3 and 2 false objects. The target is 85 % on
-both paths with no false object: not reached; the pass stays opt-in. The asserts pin what is measured.
+Figures (40 scenes, 2026-11-26, seeds 0-39), shipped defaults (the segment-then-fit pass on: ``segment_noise``
+0.0015, ``cluster_fit``): points >= 300 organized 97/114 (85 %), unorganized 102/114 (89 %), beyond 2 m 26
+and 27 of 36, no false object. Without the pass (``segment_noise`` 0): organized 87/114 (76 %), unorganized
+90/114 (79 %), beyond 2 m 16 of 36. The 600-1,500 band organized 34/38 (35/38 before the screen before the
+final fit judged at looser limits: scene 2's lying cylinder, 778 points at 1.12 m, is left while the search runs
+out of rounds; no visible-arc check refuses it). The
+target, 85 % on both paths within 10 points of each other and no false object, is what the asserts hold
+(organized with no margin: 97 where 96.9 are needed).
 """
 
 from __future__ import annotations
@@ -62,9 +64,9 @@ def measured():
 
 
 @pytest.fixture(scope="module")
-def measured_segmented():
-    """The same with the segment-then-fit pass (``segment_noise`` at the scenes' own 1.5 mm)."""
-    return _measure(ShapeDetector(shape="cylinder+sphere", max_objects=6, segment_noise=0.0015))
+def measured_without_segments():
+    """The same without the segment-then-fit pass (``segment_noise`` 0)."""
+    return _measure(ShapeDetector(shape="cylinder+sphere", max_objects=6, segment_noise=0.0))
 
 
 def _measure(detector: ShapeDetector) -> dict:
@@ -105,33 +107,28 @@ def test_objects_with_300_visible_points_organized_and_no_false_object(measured)
     tally = measured["organized"]
     found, wanted = _from_300(tally)
     assert wanted >= 100  # enough objects to mean something
-    assert found >= 0.76 * wanted, (found, wanted)
+    assert found >= 0.85 * wanted, (found, wanted)
     assert tally["bands"][BANDS[-1]][0] == tally["bands"][BANDS[-1]][1]  # every object with 1,500 points
     assert tally["bands"][BANDS[2]][0] >= 34  # of 38 (see the module's docstring: 35 before the arc checks)
     assert tally["false"] == 0
-
-
-def test_the_segment_then_fit_pass_finds_far_cylinders(measured, measured_segmented) -> None:
-    """Measured 95/114 organized (83 %), 100/114 unorganized (88 %), beyond 2 m 24 of 36; but 3 and 2
-    false objects (boxes beyond 2 m fitted as capped cylinders that no box fit of ours explains as well). The
-    target is 85 % on both paths with no false object: pinned at what is measured, not at the target."""
-    for path, least in (("organized", 95), ("unorganized", 100)):
-        found, wanted = _from_300(measured_segmented[path])
-        assert found >= least, (path, found, wanted)
-        assert found > _from_300(measured[path])[0], path
-        assert measured_segmented[path]["far"][0] >= measured[path]["far"][0] + 5, path
-    organized, wanted = _from_300(measured_segmented["organized"])
-    assert abs(_from_300(measured_segmented["unorganized"])[0] - organized) <= 0.10 * wanted
-    assert measured_segmented["organized"]["false"] <= 3
-    assert measured_segmented["unorganized"]["false"] <= 2
 
 
 def test_the_unorganized_path_is_within_ten_points_of_the_organized_one(measured) -> None:
     organized, wanted = _from_300(measured["organized"])
     unorganized, _ = _from_300(measured["unorganized"])
     assert abs(unorganized - organized) <= 0.10 * wanted, (organized, unorganized, wanted)
-    assert unorganized >= 0.76 * wanted
+    assert unorganized >= 0.85 * wanted
     assert measured["unorganized"]["false"] == 0
+
+
+def test_the_segment_then_fit_pass_finds_far_cylinders(measured, measured_without_segments) -> None:
+    """Measured beyond 2 m: 26 and 27 of 36 found with the pass (organized, unorganized), 16 without it;
+    at 300 or more points 97 and 102 of 114 against 87 and 90."""
+    for path in ("organized", "unorganized"):
+        without = measured_without_segments[path]
+        assert _from_300(measured[path])[0] >= _from_300(without)[0] + 8, path
+        assert measured[path]["far"][0] >= without["far"][0] + 8, path
+        assert without["false"] == 0, path
 
 
 def test_fresh_scenes_hold_what_they_say() -> None:

@@ -1,4 +1,4 @@
-"""rerunio's .rrd files (issue 27): written under a hidden temporary name and renamed when the recording closes
+"""rerunio's .rrd files: written under a hidden temporary name and renamed when the recording closes
 whole; removed when writing fails; a disk that cannot take the first bytes is refused before rerun's own writer
 starts (that writer could wait for ever inside native code); what must stay as it is stays."""
 

@@ -1,4 +1,4 @@
-"""Issue 27, recordings: every decompression bounded, lying definitions and metadata one line, detections on
+"""Recordings: every decompression bounded, lying definitions and metadata one line, detections on
 their inputs' timeline, compressed MCAP output. In-process, with the limits lowered through their environment
 variables so that each bomb is small; the real-size bombs run as commands in tests/hostile/test_hostile_recordings.py.
 """

@@ -1,4 +1,4 @@
-"""Issue 27: memory proportionate for a big message inside the limits. A 10000 x 10000 bgr8 Image (300 MB, at the
+"""Memory proportionate for a big message inside the limits. A 10000 x 10000 bgr8 Image (300 MB, at the
 pixel limit) in an uncompressed ROS 1 bag is read from the file into one buffer of its own size and decoded as a
 view of it: reading it costs the message once, not the chunk, a copy and a decoded copy (923 MB before). A
 20-million-point cloud (x, y, z, rgb: 320 MB, at the point limit) is decoded in its own buffer (789 MB before).

@@ -1,4 +1,4 @@
-"""Issue 27: text reaching OpenCV's drawing, a ROS field or a file is valid (a lone surrogate killed the process
+"""Text reaching OpenCV's drawing, a ROS field or a file is valid (a lone surrogate killed the process
 with a segmentation fault inside ``cv2.putText``); one function per way out, used at every drawing site."""
 
 from __future__ import annotations
@@ -72,7 +72,7 @@ def _text_arguments() -> list[tuple[str, int, ast.expr]]:
 def test_every_drawing_site_passes_its_text_through_drawable() -> None:
     """A literal is drawn as written; anything computed goes through strictio.shown.drawable."""
     sites = _text_arguments()
-    assert len(sites) >= 30  # the sites of issue 27: annotations, debug views, evaluation pictures, maps
+    assert len(sites) >= 30  # the drawing sites: annotations, debug views, evaluation pictures, maps
     bare = [where for where, _, arg in sites
             if not (isinstance(arg, ast.Constant) and isinstance(arg.value, str) and arg.value.isascii())
             and not (isinstance(arg, ast.Call) and getattr(arg.func, "id", "") == "drawable")]

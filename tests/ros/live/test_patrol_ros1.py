@@ -22,16 +22,19 @@ from navigation.cli import _percent as summary_percent
 from navigation.cli import main
 from navigation.events import EventLog
 from navigation.geometry import Pose2D, quaternion_from_yaw
+from navigation.move_base import GoalStatus
 from navigation.poses import load_poses
 from navigation.robot_interface import PatrolClock, PatrolRobot, machine_trace
 from navigation.robots import ROBOTS
 from objrec_apps import ros1_robot
+from objrec_apps.ros1_actions import ActionClient
 from objrec_apps.ros1_batteries import HostBattery, TopicBattery
 from objrec_apps.ros1_clock import WallClock
-from objrec_apps.ros1_messages import SENSOR_STATE, patrol_typestore
+from objrec_apps.ros1_messages import GOAL_ID, GOAL_STATUS_ARRAY, MOVE_BASE_ACTION, SENSOR_STATE, patrol_typestore
 from objrec_apps.ros1_robot import Ros1Robot
 from objrec_ros.msgdefs import message_from_dict
 from tests.ros.live import ros1_env
+from tests.ros.live.memory_transport import MemoryBus, MemoryTransport
 from tests.ros.live.ros1_env import SYSTEM_PYTHON, Ros1Master, RospyNode, skip_without_ros1
 from tests.signal_steps import signal_during
 
@@ -40,6 +43,7 @@ ros1_master = ros1_env.ros1_master  # the fixture, used by name
 DATA = Path(navigation.__file__).parent / "data"
 MAP = str(DATA / "b5203.yaml")
 STAND_IN = Path(__file__).with_name("rospy_move_base.py")
+LATE_STAND_IN = Path(__file__).with_name("rospy_late_move_base.py")
 STATION = Pose2D(14.4, 12.8, 0.0)
 SHIPPED = load_poses(DATA / "b5203.txt").goals
 IN_TABLE = Pose2D(12.7, 12.2, 1.57)  # inside the central table: the simulator aborts it at once
@@ -295,8 +299,8 @@ def test_a_low_robot_battery_without_docking_shuts_down_as_in_the_simulator(ros1
 
 def test_the_ros1_robot_keeps_the_protocol():
     assert Ros1Robot.wall_clock is True
-    assert {"master", "pose", "battery", "kobuki", "dock", "move_base", "laptop", "frame", "timeout"} == set(
-        Ros1Robot.options)
+    assert {"master", "pose", "battery", "kobuki", "dock", "move_base", "laptop", "frame", "timeout", "ack",
+            "silence", "first_message"} == set(Ros1Robot.options)
     members = {name for name in dir(PatrolRobot) if not name.startswith("_")}
     assert members <= set(dir(Ros1Robot)) | {"clock", "events", "move_base", "robot_battery", "laptop_battery"}
 
@@ -365,8 +369,11 @@ def test_genpy_computes_our_auto_docking_md5sums(ros1_master, tmp_path):
 @pytest.mark.parametrize(("robot", "needle"), [
     ("ros1,master=http://127.0.0.1:9,timeout=5", "127.0.0.1:9"),
     ("ros1,timeout=soon", "timeout='soon' is invalid: expected seconds in 0..3600"),
-    ("ros1,speed=3", "robot ros1 has no option speed (options: battery, dock, frame, kobuki, laptop, master, "
-                     "move_base, pose, timeout)"),
+    ("ros1,ack=0", "ack='0' is invalid: expected seconds in 0..3600"),
+    ("ros1,silence=-1", "silence='-1' is invalid: expected seconds in 0..3600"),
+    ("ros1,first_message=never", "first_message='never' is invalid: expected seconds in 0..3600"),
+    ("ros1,speed=3", "robot ros1 has no option speed (options: ack, battery, dock, first_message, frame, kobuki, "
+                     "laptop, master, move_base, pose, silence, timeout)"),
     ("ros1,battery=/battery,kobuki=/mobile_base/sensors/core", "battery= and kobuki= both name the robot's battery"),
 ])
 def test_a_robot_that_cannot_be_used_is_one_error_line(ros1_robot_plugin, tmp_path, robot, needle):
@@ -430,3 +437,170 @@ def test_a_battery_state_in_fractions_or_percent_and_its_events():
     assert battery.is_full and battery.percentage == 100.0
     battery.update(SimpleNamespace(percentage=float("nan"), voltage=0.0, power_supply_status=0))
     assert battery.percentage == 100.0  # a driver that does not know keeps the last level
+
+
+# -- every wait has a deadline --------------------------------------------------------------------------------
+def start_late_stand_in(master: Ros1Master, workdir: Path, *args: str) -> RospyNode:
+    node = RospyNode.start(LATE_STAND_IN, master, workdir, args=list(args), name="late_move_base")
+    if node.wait_for("ready") is None:
+        node.stop()
+        pytest.fail(f"the late move_base did not start: {node.diagnostics()}")
+    return node
+
+
+def unacknowledged(number: int, seconds: str = "1") -> str:
+    return (f"move_base did not acknowledge goal {number} (POSE_{number - 1}) within {seconds} s: is move_base "
+            "running on /move_base?")
+
+
+def test_goals_move_base_never_acknowledges_end_aborted_and_the_patrol_goes_on(ros1_master, ros1_robot_plugin,
+                                                                                tmp_path, caplog):
+    """A move_base that holds the topics but never names a goal in a status (hung): each goal ends ABORTED after
+    ack= seconds with the reason, a cancel is sent for it, and the patrol goes on exactly as the simulator's does
+    when every goal is aborted (three goals inside the table). The pose topic stays quiet: after first_message=
+    seconds a warning and a topic_silent event say so."""
+    in_table = [IN_TABLE, Pose2D(IN_TABLE.x + 0.1, IN_TABLE.y, 0.0), Pose2D(IN_TABLE.x, IN_TABLE.y + 0.1, 0.0)]
+    poses = write_poses(tmp_path / "poses.txt", in_table, None)
+    start = ["--start", str(SHIPPED[0].x), str(SHIPPED[0].y), "0"]
+    code, out, err = run_patrol_command([poses, "--map", MAP, *start, "--laps", "1", "--events",
+                                         str(tmp_path / "sim.jsonl")])
+    assert code == 0, err
+    assert summary_fields(out)["goals"] == "0 reached, 3 aborted, 0 preempted"
+    node = start_late_stand_in(ros1_master, tmp_path, "--late-goals", "99", "--late-by", "never")
+    try:
+        code, out, err = run_patrol_command(
+            [poses, "--map", MAP, *start, "--laps", "1", "--events", str(tmp_path / "ros.jsonl"),
+             "--time-limit", f"{RUN_GUARD:g}",  # a hang guard
+             "--robot", f"ros1,master={ros1_master.uri},ack=1,first_message=1,timeout={RUN_GUARD:g}"])
+        assert code == 0, err + node.diagnostics()
+        lines = node.lines_until(6, RUN_GUARD)
+    finally:
+        node.stop()
+    ros_events = read_events(tmp_path / "ros.jsonl")
+    assert machine_trace(ros_events) == machine_trace(read_events(tmp_path / "sim.jsonl"))
+    assert [(e["status"], e["text"]) for e in ros_events if e["type"] == "goal_result"] == [
+        ("ABORTED", unacknowledged(k)) for k in (1, 2, 3)]
+    sent = [str(e["ros_id"]) for e in ros_events if e["type"] == "goal_sent"]
+    assert sorted(lines) == sorted([f"goal {i}" for i in sent] + [f"cancel {i}" for i in sent])  # none taken
+    assert summary_fields(out)["goals"] == "0 reached, 3 aborted, 0 preempted"
+    assert summary_fields(out)["outcome"] == "shutdown"
+    [silent] = [e for e in ros_events if e["type"] == "topic_silent"]
+    assert (silent["topic"], silent["seconds"]) == ("/amcl_pose", 1.0)
+    assert "no message on /amcl_pose within 1 s: the patrol keeps the start pose" in caplog.text
+    assert unacknowledged(3) in caplog.text  # each give-up is a warning as well as an event
+
+
+@pytest.mark.parametrize(("late_by", "ack", "statuses"), [
+    ("3", "1", ["ABORTED", "SUCCEEDED", "SUCCEEDED"]),  # later than the deadline: given up, then recalled
+    ("1", "4", ["SUCCEEDED", "SUCCEEDED", "SUCCEEDED"]),  # late but within it: waited for
+])
+def test_a_goal_acknowledged_late(ros1_master, ros1_robot_plugin, tmp_path, late_by, ack, statuses):
+    """move_base takes the first goal ``late_by`` seconds after it came. Past the ack= deadline the patrol has
+    given it up (ABORTED with the reason, a cancel sent) and drives to the next goal; the late server finds the
+    cancel and recalls the goal, and its late verdict does not reach the patrol. Within the deadline the goal is
+    simply waited for."""
+    goals = list(SHIPPED[:3])
+    poses = write_poses(tmp_path / "poses.txt", goals, None)
+    node = start_late_stand_in(ros1_master, tmp_path, "--late-goals", "1", "--late-by", late_by)
+    try:
+        code, out, err = run_patrol_command(
+            [poses, "--map", MAP, "--laps", "1", "--events", str(tmp_path / "ros.jsonl"), "--time-limit",
+             f"{RUN_GUARD:g}", "--robot", f"ros1,master={ros1_master.uri},ack={ack},timeout={RUN_GUARD:g}"])
+        assert code == 0, err + node.diagnostics()
+        recalled = node.wait_for("recalled ", timeout=RUN_GUARD) if statuses[0] == "ABORTED" else None
+    finally:
+        node.stop()
+    ros_events = read_events(tmp_path / "ros.jsonl")
+    results = [e for e in ros_events if e["type"] == "goal_result"]
+    assert [e["status"] for e in results] == statuses
+    first = next(e for e in ros_events if e["type"] == "goal_sent")
+    if statuses[0] == "ABORTED":
+        assert results[0]["text"] == unacknowledged(1)
+        assert recalled == f"recalled {first['ros_id']}", node.diagnostics()
+    else:
+        assert results[0]["text"] == "goal reached"
+    reached = statuses.count("SUCCEEDED")
+    assert summary_fields(out)["goals"] == f"{reached} reached, {3 - reached} aborted, 0 preempted"
+
+
+def test_a_move_base_that_falls_silent_mid_goal_aborts_it(ros1_master, ros1_robot_plugin, tmp_path):
+    """move_base acknowledges the first goal, then publishes nothing more (hung): that goal ends ABORTED after
+    silence= seconds without a status, and the next ones, never named in a status, after ack= seconds each."""
+    poses = write_poses(tmp_path / "poses.txt", list(SHIPPED[:3]), None)
+    node = start_late_stand_in(ros1_master, tmp_path, "--mute-after", "1", "--delay", "600")
+    try:
+        code, out, err = run_patrol_command(
+            [poses, "--map", MAP, "--laps", "1", "--events", str(tmp_path / "ros.jsonl"), "--time-limit",
+             f"{RUN_GUARD:g}", "--robot", f"ros1,master={ros1_master.uri},ack=1,silence=2,timeout={RUN_GUARD:g}"])
+        assert code == 0, err + node.diagnostics()
+    finally:
+        node.stop()
+    results = [(e["status"], e["text"]) for e in read_events(tmp_path / "ros.jsonl") if e["type"] == "goal_result"]
+    assert results == [
+        ("ABORTED", "move_base went silent: no status on /move_base/status for 2 s while goal 1 (POSE_0) ran: is "
+                    "move_base still running?"),
+        ("ABORTED", unacknowledged(2)), ("ABORTED", unacknowledged(3))]
+    assert summary_fields(out)["goals"] == "0 reached, 3 aborted, 0 preempted"
+
+
+def test_the_action_clients_deadlines_on_a_clock_that_is_told_the_time():
+    """No ROS: the action client on the in-process bus, its clock's time set by the test. A goal no status names
+    is given up after ack seconds (ABORTED with the reason, a cancel published); a goal a status names is not,
+    and is given up only when the status then stays quiet for silence seconds; a status that keeps coming keeps
+    it running."""
+    bus = MemoryBus()
+    MemoryTransport.bus = bus
+    transport = MemoryTransport({}, "deadlines")
+    store = patrol_typestore()
+    now = [0.0]
+    clock = WallClock(monotonic=lambda: now[0])
+    action = ActionClient(transport, "/move_base", MOVE_BASE_ACTION, store, clock, "/t", "move_base",
+                          ack_seconds=5.0, silence_seconds=10.0)
+    status_out = transport.advertise("/move_base/status", GOAL_STATUS_ARRAY, store)
+    ended: list[tuple[str, GoalStatus, str]] = []
+
+    def send(label: str) -> str:
+        return action.send({"target_pose": {"header": {"frame_id": "map"}}},
+                           lambda s, t: ended.append((label, s, t)), label)
+
+    def status(*goal_ids: str) -> None:
+        """Publish a status naming ``goal_ids`` as ACTIVE and wait (a hang guard) until the client has it."""
+        before = action.statuses
+        message = message_from_dict(store, GOAL_STATUS_ARRAY, {
+            "status_list": [{"goal_id": {"id": i}, "status": 1} for i in goal_ids]})
+        status_out.publish(bytes(store.serialize_ros1(message, GOAL_STATUS_ARRAY)))
+        for _ in range(2000):
+            clock.run_pending(0.01)
+            if action.statuses > before:
+                return
+        pytest.fail("the status never reached the client")
+
+    try:
+        never = send("goal 1 (POSE_0)")
+        now[0] = 4.9
+        clock.run_pending(0.0)
+        assert ended == []
+        now[0] = 5.0
+        clock.run_pending(0.0)
+        assert ended == [("goal 1 (POSE_0)", GoalStatus.ABORTED, "move_base did not acknowledge goal 1 (POSE_0) "
+                                                                 "within 5 s: is move_base running on /move_base?")]
+        cancels = [store.deserialize_ros1(m.raw, GOAL_ID).id for m in bus.sent.get("/move_base/cancel", [])]
+        assert cancels == [never]
+        ended.clear()
+        taken = send("goal 2 (POSE_1)")
+        status(taken)
+        for t in (6.0, 10.0, 14.0, 17.0):  # the status keeps coming: no deadline passes
+            now[0] = t
+            status(taken)
+        now[0] = 26.9
+        clock.run_pending(0.0)
+        assert ended == []
+        now[0] = 27.25  # 10 s after the last status, at the next silence check
+        clock.run_pending(0.0)
+        assert ended == [("goal 2 (POSE_1)", GoalStatus.ABORTED, "move_base went silent: no status on "
+                                                                 "/move_base/status for 10 s while goal 2 (POSE_1) "
+                                                                 "ran: is move_base still running?")]
+        assert clock.next_due() is None  # no goal left: no timer left
+    finally:
+        action.close()
+        transport.close()
