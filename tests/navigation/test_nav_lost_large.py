@@ -20,8 +20,8 @@ from navigation.amcl_global import (
 )
 from navigation.costmap import ObstacleField
 from navigation.geometry import Pose2D
-from navigation.laser import LaserParams, cast_scan
-from navigation.localization import AmclParams, ParticleFilter, ScanView, compose
+from navigation.laser import LaserParams
+from navigation.localization import AmclParams, ParticleFilter, compose
 from navigation.lost_scenarios import (
     CORRIDOR_GOALS,
     CORRIDOR_KIDNAP,
@@ -38,20 +38,12 @@ from navigation.planner import Planner
 from navigation.relocalize import schedule_kidnap
 from navigation.runner import run_patrol
 from navigation.simulation import SimConfig, Simulation
+from tests.navigation.test_nav_lost_kidnap import turn_of_views
 
 NOISY = {"odom_linear_noise": 0.05, "odom_angular_noise": 0.05}
 LASER = LaserParams(beams=30)
 WILLOW = "maps/willow_2010/willow-2010-02-18-0.10.yaml"
 KIDNAP_AT = 20.0
-
-
-def turn_of_views(field: ObstacleField, start: Pose2D, n: int = 12) -> tuple[list[ScanView], Pose2D]:
-    """Scans cast from ``start`` while turning on the spot, every 30 degrees; and the odometry pose after them."""
-    views = []
-    for k in range(n):
-        odom = Pose2D(0.0, 0.0, k * math.tau / n)
-        views.append(ScanView(float(k), odom, cast_scan(field, compose(start, odom), LASER)))
-    return views, views[-1].odom
 
 
 def filter_on(occ_map) -> ParticleFilter:  # type: ignore[no-untyped-def]

@@ -94,11 +94,13 @@ def run_patrol_command(args: list[str]) -> tuple[int, str, str]:
     return code, out.getvalue(), err.getvalue()
 
 
-def start_stand_in(master: Ros1Master, workdir: Path, *args: str) -> RospyNode:
-    node = RospyNode.start(STAND_IN, master, workdir, args=list(args), name="move_base_stand_in")
+def start_stand_in(master: Ros1Master, workdir: Path, *args: str, script: Path = STAND_IN,
+                   name: str = "move_base_stand_in") -> RospyNode:
+    """A rospy move_base stand-in (``script``) started and ready, or the test fails saying why."""
+    node = RospyNode.start(script, master, workdir, args=list(args), name=name)
     if node.wait_for("ready") is None:
         node.stop()
-        pytest.fail(f"the stand-in move_base did not start: {node.diagnostics()}")
+        pytest.fail(f"the stand-in {name} did not start: {node.diagnostics()}")
     return node
 
 
@@ -441,11 +443,7 @@ def test_a_battery_state_in_fractions_or_percent_and_its_events():
 
 # -- every wait has a deadline --------------------------------------------------------------------------------
 def start_late_stand_in(master: Ros1Master, workdir: Path, *args: str) -> RospyNode:
-    node = RospyNode.start(LATE_STAND_IN, master, workdir, args=list(args), name="late_move_base")
-    if node.wait_for("ready") is None:
-        node.stop()
-        pytest.fail(f"the late move_base did not start: {node.diagnostics()}")
-    return node
+    return start_stand_in(master, workdir, *args, script=LATE_STAND_IN, name="late_move_base")
 
 
 def unacknowledged(number: int, seconds: str = "1") -> str:
