@@ -13,6 +13,7 @@ strongest acceptable fits become objects, each reporting its own shape.
 from __future__ import annotations
 
 import dataclasses
+import functools
 import logging
 import math
 from dataclasses import dataclass
@@ -35,6 +36,23 @@ from .tracking import IdentityTracker
 from .vec import cross3, dot3, norms
 
 log = logging.getLogger(__name__)
+
+
+@functools.cache
+def far_pass_available() -> bool:
+    """Whether SciPy, which the segment-then-fit pass fits with, is installed (the 3d extra). Organized clouds
+    need nothing else of SciPy, so without it the pass is left out, said once in the log, rather than the whole
+    detection refused: the detections are then those of ``segment_noise`` 0."""
+    try:
+        import scipy.optimize
+        import scipy.sparse.csgraph
+        import scipy.spatial  # noqa: F401
+    except ImportError:
+        log.warning("ShapeDetector: segment_noise's pass for far cylinders needs scipy, which is not installed "
+                    "(pip install 'objrec[3d]'): left out")
+        return False
+    return True
+
 
 #: Rounds in a row whose every fit was rejected before the search gives up: the rejected fits' points are set
 #: aside and the search tried again, but after this many the cloud has nothing left that is the shape (as many
@@ -246,7 +264,7 @@ class ShapeDetector(CloudDetector):
                 taken[candidate.fit.inliers] = True
             alive = alive[~taken[alive]]
             free &= ~taken
-        if p.segment_noise > 0 and "cylinder" in shapes and len(found) < p.max_objects:
+        if p.segment_noise > 0 and "cylinder" in shapes and len(found) < p.max_objects and far_pass_available():
             found += self._segment_then_fit(points, normals, free, settings, cloud.sensor_origin, p)[
                 : p.max_objects - len(found)]
         if found:
