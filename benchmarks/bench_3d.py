@@ -8,7 +8,7 @@
 2. ShapeDetector against pyransac3d's Cylinder and Sphere fits on the same synthetic scenes (random radii,
    poses, noise, clutter), given the same points (after the distance filter and the table removal), and
    pyransac3d once more on only the points near the true object (an oracle segmentation):
-   success rate within the issue's tolerances (centre 5 mm, radius 3 mm, axis 2 degrees), median errors,
+   success rate within the promised tolerances (centre 5 mm, radius 3 mm, axis 2 degrees), median errors,
    and time per fit.
 
 Usage: python benchmarks/bench_3d.py [--repeats 15] [--scenes 20] [--pyransac-iterations 1000]

@@ -11,12 +11,12 @@ with a line, where Debian's ROS 1 is absent); ROS 2 runs in the tests' loopback 
 (``tests/ros/live/dds_env.py``: interface ``lo``, no multicast, 127.0.0.1 the one peer) in a free domain.
 
 The baseline, timed in the same run: the pipeline's own time per frame (``DetectionDirector.process``) on the
-same frames read from PNG files. The issue's target is latency p95 under 1.5x that time plus 5 ms, so the
+same frames read from PNG files. The target is latency p95 under 1.5x that time plus 5 ms, so the
 table prints p95 / (1.5 x pipeline + 5 ms): under 1 meets it. With ``--slow-ms`` a second run per transport
 sleeps that long per frame in the detector, so the camera outruns it: the source's counts show what it
 received, processed and dropped (newest wins), and that processed + dropped (+ unreadable) equals received.
 ``--soak N`` runs N frames more per transport and reads the detector's resident memory at frame 1,000 and
-at the end (growth in MiB; the issue's target is none over 10,000 frames).
+at the end (growth in MiB; the target is none over 10,000 frames).
 
     python benchmarks/bench_live.py [--frames 300] [--fps 30] [--transports ros1,ros2] [--slow-ms 100]
                                     [--soak 1200]

@@ -1,6 +1,6 @@
 """A robot that knows it is lost: goals, collisions and amcl's worst error over seeds, for two lessons.
 
-* ``box``: the issue's unmapped 0.5 m box 0.15 m from two TurtleBot3-world pillars, ``--goals`` goals spread
+* ``box``: the lesson's unmapped 0.5 m box 0.15 m from two TurtleBot3-world pillars, ``--goals`` goals spread
   over the map, amcl with 5 % odometry noise. Target: at least 38 of 40 goals, no collision, no slide.
 * ``kidnap``: the lost-robot room, two laps of four goals, the robot carried off at t = 20 s. Target: lost
   within 10 s, relocalised within 0.3 m, both laps completed. ``--destinations`` adds kidnaps to four more

@@ -29,7 +29,7 @@ from machine import cpu_model  # benchmarks/machine.py: scripts run with benchma
 
 ROOT = Path(__file__).resolve().parents[1]
 SYSTEMS = ROOT / "objrec_apps" / "systems"
-#: The issue's soak lengths per system, and a tenth of them for --quick.
+#: The soak lengths promised per system, and a tenth of them for --quick.
 FRAMES = {"hsv": 30_000, "feature": 3_000, "shape": 1_500}
 PARAMS = {"hsv": SYSTEMS / "hsv_demo.yaml", "feature": SYSTEMS / "feature_demo.yaml",
           "shape": SYSTEMS / "shape_demo.yaml"}

@@ -1,6 +1,6 @@
 """objrec-tune on the colour demo from deliberately bad thresholds: trials until F1 >= 0.95 and seconds.
 
-The issue's promise: from a hue range on a colour no demo object has, the search reaches F1 >= 0.95 on the
+The promise: from a hue range on a colour no demo object has, the search reaches F1 >= 0.95 on the
 held-out frames within 200 trials and 60 s on 2 cores. Per seed: the first trial whose searched-frames F1
 reaches 0.95, the held-out F1 with the best values after all trials, the CPU seconds of the search (this
 process) and its wall-clock seconds, beside the machine and its load (a shared machine stretches wall-clock

@@ -10,7 +10,7 @@
   walls (:func:`navigation.people_scenarios.corridor_map`); the robot patrols between its ends and is carried to
   its middle, 15 m from either end, farther than the laser's 6 m: every place along the middle looks the same,
   and the robot must say it cannot tell where along the corridor it is.
-* :func:`box_between_pillars`: the issue's unmapped 0.5 m box, centred between the TurtleBot3 world's middle
+* :func:`box_between_pillars`: the lesson's unmapped 0.5 m box, centred between the TurtleBot3 world's middle
   pillar and its neighbour along +x, about 0.15 m from each.
 * :func:`spread_goals`: goal poses spread over the largest free region by farthest-point sampling.
 """

@@ -26,9 +26,10 @@ from strictio.atomic import check_replaceable, remove_stale_temporaries, tempora
 from strictio.shown import drawable
 from strictio.video import VideoFile
 
-from .costmap_filters import KEEPOUT_COLOUR, SPEED_COLOUR, blend_overlay
+from .costmap_filters import KEEPOUT_COLOUR, SPEED_COLOUR
 from .docking import DockingStation
 from .geometry import Pose2D
+from .map_view import MapView
 from .maps import OccupancyMap
 
 log = logging.getLogger(__name__)
@@ -170,65 +171,30 @@ class RunPicture:
     localization: LocalizationMarks | None = None
 
 
-class _Canvas:
-    """Crop of the map around what matters, scaled up; converts world points to pixels."""
-
-    def __init__(self, pic: RunPicture, max_side: int, min_side: int = 0) -> None:
-        m = pic.map
-        known = np.argwhere(m.data >= 0)
-        pts = [m.world_to_grid(x, y) for _, x, y, _ in pic.trajectory]
-        pts = pts[::max(1, len(pts) // 5000)]  # the extent of a long run needs only a sample
-        pts += [m.world_to_grid(g.x, g.y) for g in pic.goals]
-        if pic.station_pose is not None:
-            pts.append(m.world_to_grid(pic.station_pose.x, pic.station_pose.y))
-        cols = [p[0] for p in pts] + ([known[:, 1].min(), known[:, 1].max() + 1] if len(known) else [])
-        rows = [p[1] for p in pts] + ([known[:, 0].min(), known[:, 0].max() + 1] if len(known) else [])
-        margin = max(2, round(1.0 / m.resolution))
-        self.c0 = max(0, math.floor(min(cols)) - margin)
-        self.c1 = min(m.width, math.ceil(max(cols)) + margin)
-        self.r0 = max(0, math.floor(min(rows)) - margin)
-        self.r1 = min(m.height, math.ceil(max(rows)) + margin)
-        crop = m.to_image()[m.height - self.r1:m.height - self.r0, self.c0:self.c1]
-        longest = max(crop.shape)
-        # A map larger than the picture is scaled down (a 5000x5000 map made 75 MB frames, 300 of them a video)
-        self.scale: float = max(1, max_side // longest) if longest <= max_side else max_side / longest
-        if longest * self.scale < min_side:  # a small map in an animation to project: scaled up to min_side
-            self.scale = min_side / longest
-        base = cv2.resize(crop, None, fx=self.scale, fy=self.scale,
-                          interpolation=cv2.INTER_NEAREST if self.scale >= 1 else cv2.INTER_AREA)
-        self.base = cv2.cvtColor(base, cv2.COLOR_GRAY2BGR)
-        if pic.zones is not None:
-            layer = cv2.resize(pic.zones[self.r0:self.r1, self.c0:self.c1][::-1], (base.shape[1], base.shape[0]),
-                               interpolation=cv2.INTER_NEAREST)
-            self.base = blend_overlay(self.base, layer)
-        self.map = m
-        self.px_per_m = self.scale / m.resolution
-
-    def px(self, x: float, y: float) -> tuple[int, int]:
-        gx, gy = self.map.world_to_grid(x, y)
-        return (round((gx - self.c0) * self.scale), round((self.r1 - gy) * self.scale))
-
-    def px_array(self, xy: np.ndarray) -> np.ndarray:
-        """Pixels of many world points at once (N x 2 in, N x 2 int32 out)."""
-        m = self.map
-        dx, dy = xy[:, 0] - m.origin.x, xy[:, 1] - m.origin.y
-        c, s = math.cos(m.origin.yaw), math.sin(m.origin.yaw)
-        gx, gy = (dx * c + dy * s) / m.resolution, (-dx * s + dy * c) / m.resolution
-        return np.stack([np.rint((gx - self.c0) * self.scale), np.rint((self.r1 - gy) * self.scale)],
-                        axis=1).astype(np.int32)
-
-    def heading(self, pose: Pose2D, length_m: float) -> tuple[int, int]:
-        yaw = self.map.yaw_to_grid(pose.yaw)
-        gx, gy = self.map.world_to_grid(pose.x, pose.y)
-        return (round((gx + math.cos(yaw) * length_m / self.map.resolution - self.c0) * self.scale),
-                round((self.r1 - gy - math.sin(yaw) * length_m / self.map.resolution) * self.scale))
+def _canvas(pic: RunPicture, max_side: int, min_side: int = 0) -> MapView:
+    """The map around what matters to the run (its known cells, route, goals and station), zones tinted."""
+    m = pic.map
+    known = np.argwhere(m.data >= 0)
+    pts = [m.world_to_grid(x, y) for _, x, y, _ in pic.trajectory]
+    pts = pts[::max(1, len(pts) // 5000)]  # the extent of a long run needs only a sample
+    pts += [m.world_to_grid(g.x, g.y) for g in pic.goals]
+    if pic.station_pose is not None:
+        pts.append(m.world_to_grid(pic.station_pose.x, pic.station_pose.y))
+    cols = [p[0] for p in pts] + ([known[:, 1].min(), known[:, 1].max() + 1] if len(known) else [])
+    rows = [p[1] for p in pts] + ([known[:, 0].min(), known[:, 0].max() + 1] if len(known) else [])
+    margin = max(2, round(1.0 / m.resolution))
+    view = MapView(m, (math.floor(min(cols)) - margin, math.ceil(max(cols)) + margin),
+                   (math.floor(min(rows)) - margin, math.ceil(max(rows)) + margin), max_side, min_side)
+    if pic.zones is not None:
+        view.tint(pic.zones)
+    return view
 
 
 def _font_scale(img: np.ndarray) -> float:
     return max(0.35, min(img.shape[:2]) / 1400.0)
 
 
-def _draw_static(canvas: _Canvas, pic: RunPicture, img: np.ndarray) -> None:
+def _draw_static(canvas: MapView, pic: RunPicture, img: np.ndarray) -> None:
     fs = _font_scale(img)
     if pic.dock is not None:
         d = pic.dock.pose
@@ -251,7 +217,7 @@ def _draw_static(canvas: _Canvas, pic: RunPicture, img: np.ndarray) -> None:
                     cv2.LINE_AA)
 
 
-def _trajectory_pixels(canvas: _Canvas, pic: RunPicture) -> np.ndarray:
+def _trajectory_pixels(canvas: MapView, pic: RunPicture) -> np.ndarray:
     """The whole trajectory in pixels, converted once for all frames."""
     if not pic.trajectory:
         return np.zeros((0, 2), np.int32)
@@ -263,14 +229,14 @@ def _draw_trail(img: np.ndarray, pixels: np.ndarray) -> None:
         cv2.polylines(img, [pixels.reshape(-1, 1, 2)], False, PATH_COLOUR, 2, cv2.LINE_AA)
 
 
-def _draw_robot(canvas: _Canvas, pic: RunPicture, img: np.ndarray, index: int) -> None:
+def _draw_robot(canvas: MapView, pic: RunPicture, img: np.ndarray, index: int) -> None:
     _, x, y, yaw = pic.trajectory[index]
     c = canvas.px(x, y)
     cv2.circle(img, c, max(3, round(pic.robot_radius * canvas.px_per_m)), ROBOT_COLOUR, 2, cv2.LINE_AA)
     cv2.line(img, c, canvas.heading(Pose2D(x, y, yaw), pic.robot_radius), ROBOT_COLOUR, 2, cv2.LINE_AA)
 
 
-def _draw_collisions(canvas: _Canvas, pic: RunPicture, img: np.ndarray) -> None:
+def _draw_collisions(canvas: MapView, pic: RunPicture, img: np.ndarray) -> None:
     size = max(4, round(0.1 * canvas.px_per_m))
     for x, y in pic.collisions:
         cx, cy = canvas.px(x, y)
@@ -278,7 +244,7 @@ def _draw_collisions(canvas: _Canvas, pic: RunPicture, img: np.ndarray) -> None:
         cv2.line(img, (cx - size, cy + size), (cx + size, cy - size), (0, 0, 255), 2)
 
 
-def _draw_localization(canvas: _Canvas, pic: RunPicture, img: np.ndarray, until: float = math.inf) -> None:
+def _draw_localization(canvas: MapView, pic: RunPicture, img: np.ndarray, until: float = math.inf) -> None:
     """The believed track (dashed) up to ``until``, each loss as a line from the believed to the true pose with
     a ring at the believed one, each kidnap as an arrow from where the robot was to where it was put."""
     marks = pic.localization
@@ -339,8 +305,8 @@ def _keys(img: np.ndarray, pic: RunPicture, first_line: int, robot: str = "still
 
 
 def render_still(pic: RunPicture, max_side: int = 1000) -> np.ndarray:
-    canvas = _Canvas(pic, max_side)
-    img = canvas.base.copy()
+    canvas = _canvas(pic, max_side)
+    img = canvas.image.copy()
     _draw_static(canvas, pic, img)
     _draw_trail(img, _trajectory_pixels(canvas, pic))
     _draw_collisions(canvas, pic, img)
@@ -361,8 +327,8 @@ def render_frames(pic: RunPicture, max_side: int = 720, max_frames: int = 300, m
 
     The trail is drawn incrementally on one canvas, so a long run costs its length once, not per frame.
     """
-    canvas = _Canvas(pic, max_side, min_side)
-    trail = canvas.base.copy()
+    canvas = _canvas(pic, max_side, min_side)
+    trail = canvas.image.copy()
     _draw_static(canvas, pic, trail)
     n = len(pic.trajectory)
     if n == 0:

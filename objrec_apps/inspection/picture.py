@@ -19,8 +19,8 @@ from collections.abc import Sequence
 import cv2
 import numpy as np
 
-from navigation.costmap_filters import blend_overlay
 from navigation.geometry import Pose2D
+from navigation.map_view import MapView
 from navigation.maps import OccupancyMap
 from navigation.render import draw_dashed, first_passes, zone_legend
 from navigation.world import World, WorldObject
@@ -49,33 +49,6 @@ TEXT = (40, 40, 40)
 FONT = cv2.FONT_HERSHEY_SIMPLEX
 
 
-class _View:
-    """The known part of the map, scaled up; world metres to pixels."""
-
-    def __init__(self, occ_map: OccupancyMap, max_side: int) -> None:
-        known = np.argwhere(occ_map.data >= 0)
-        r0, c0 = known.min(axis=0) - 4
-        r1, c1 = known.max(axis=0) + 5
-        self.r0, self.c0 = max(0, int(r0)), max(0, int(c0))
-        self.r1, self.c1 = min(occ_map.height, int(r1)), min(occ_map.width, int(c1))
-        crop = occ_map.to_image()[occ_map.height - self.r1:occ_map.height - self.r0, self.c0:self.c1]
-        self.scale = max(1, max_side // max(crop.shape))
-        grey = cv2.resize(crop, None, fx=self.scale, fy=self.scale, interpolation=cv2.INTER_NEAREST)
-        self.image = cv2.cvtColor(grey, cv2.COLOR_GRAY2BGR)
-        self.map = occ_map
-        self.px_per_m = self.scale / occ_map.resolution
-
-    def tint(self, zones: np.ndarray) -> None:
-        """Blend a zone layer (BGRA over the map's cells, row 0 at the bottom) over the picture."""
-        layer = zones[self.r0:self.r1, self.c0:self.c1][::-1]
-        layer = cv2.resize(layer, (self.image.shape[1], self.image.shape[0]), interpolation=cv2.INTER_NEAREST)
-        self.image = blend_overlay(self.image, layer)
-
-    def px(self, x: float, y: float) -> tuple[int, int]:
-        gx, gy = self.map.world_to_grid(x, y)
-        return (round((gx - self.c0) * self.scale), round((self.r1 - gy) * self.scale))
-
-
 def _text(img: np.ndarray, text: str, at: tuple[int, int], colour: tuple[int, int, int], scale: float) -> None:
     """A label with a white halo; one that would run off the right edge is moved left to fit."""
     width = cv2.getTextSize(drawable(text), FONT, scale, 1)[0][0]
@@ -84,7 +57,7 @@ def _text(img: np.ndarray, text: str, at: tuple[int, int], colour: tuple[int, in
     cv2.putText(img, drawable(text), at, FONT, scale, colour, 1, cv2.LINE_AA)
 
 
-def _outline(view: _View, img: np.ndarray, thing: WorldObject, colour: tuple[int, int, int]) -> None:
+def _outline(view: MapView, img: np.ndarray, thing: WorldObject, colour: tuple[int, int, int]) -> None:
     fp = thing.footprint()
     if fp.is_circle:
         cv2.circle(img, view.px(fp.x, fp.y), max(2, round(fp.radius * view.px_per_m)), colour, 1, cv2.LINE_AA)
@@ -99,7 +72,7 @@ def draw_inspection(occ_map: OccupancyMap, reference: World, simulated: World, r
                     zones: np.ndarray | None = None) -> np.ndarray:
     """The picture; ``zones`` is the keepout and speed zones' layer
     (:func:`navigation.nav_params.apply_to_simulation` returns it), None when there are none."""
-    view = _View(occ_map, max_side)
+    view = MapView.of_known(occ_map, max_side)
     if zones is not None:
         view.tint(zones)
     img = view.image

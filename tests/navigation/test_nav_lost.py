@@ -155,7 +155,7 @@ def test_an_unmapped_box_beside_two_pillars_does_not_drag_amcl(shared_data, seed
     occ_map = load_map(shared_data / "maps/turtlebot3_world/map.yaml")
     box = box_between_pillars(occ_map)
     gaps = sorted(math.hypot(px - box.x, py - box.y) - 0.25 - 0.15 for px, py in pillars(occ_map))[:2]
-    assert all(0.1 < g < 0.2 for g in gaps)  # about 0.15 m from two pillars, as in the issue
+    assert all(0.1 < g < 0.2 for g in gaps)  # about 0.15 m from two pillars, as the lesson places it
     world = World(obstacles=(box,))
     field = ObstacleField(occ_map)
     planner = Planner(field)

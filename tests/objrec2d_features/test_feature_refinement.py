@@ -80,7 +80,7 @@ def test_every_type_places_pasted_copies_of_the_box_within_a_pixel(box, feature_
         frame, (view,) = composite(box, seed, [(rng.uniform(260, 380), rng.uniform(200, 280))])
         (found,) = outlines(detector.detect(frame))
         errors.append(corner_error(found, project(view, truth_corners)[0]))
-    assert max(errors) < 1.0, errors  # the bound is 2 px; ORB's keypoint fit alone was 7.1 px off
+    assert max(errors) < 1.0, errors  # the promised bound is 2 px; ORB's keypoint fit alone was 7.1 px off
 
 
 @pytest.mark.realdata

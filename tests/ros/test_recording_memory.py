@@ -26,7 +26,7 @@ MESSAGE_MB = SIDE * SIDE * 3 / 1e6
 #: What one run of the reader costs beyond the message: Python, NumPy, rosbags, objrec (about 70 MB).
 OVERHEAD_MB = 150
 POINTS = 20_000_000
-#: The issue's bound for an input inside the limits.
+#: The memory promised for reading an input inside the limits.
 MEMORY_LIMIT_MB = 500
 READ = """
 import sys
