@@ -14,7 +14,7 @@ percentage line, in 0.1 V; the charger DOCKING_CHARGED once docked); ``--low-at-
 the N-th goal arrives. ``--dock DIR`` also serves the Kobuki's
 /dock_drive_action (kobuki_msgs/AutoDocking, whose message classes are generated with genpy from the definitions
 in DIR/<Type>.msgdef, since Debian has no kobuki_msgs): a dock goal succeeds after ``--delay`` and the battery is
-then full.
+then full; with ``--dock-hung`` the docking driver takes goals but never names one in a status (hung).
 
 Each goal, cancel and result is printed (``goal ID X Y``, ``cancel ID``, ``result ID STATUS``, and ``dock ID``,
 ``dock-result ID STATUS``) for the test to read; ``ready`` once everything is advertised and subscribed.
@@ -39,9 +39,10 @@ LOW_PERCENT = 20.0
 class StandInServer:
     """One action server on plain topics: goals finish ``delay`` s after they arrive, as ``decide`` says."""
 
-    def __init__(self, ns, goal_cls, result_cls, delay, decide, prefix, lock):
+    def __init__(self, ns, goal_cls, result_cls, delay, decide, prefix, lock, hung=False):
         self.ns, self.result_cls, self.delay, self.decide, self.prefix, self.lock = (
             ns, result_cls, delay, decide, prefix, lock)
+        self.hung = hung  # goals are printed but never named in a status nor finished
         self.goals = {}  # id -> dict(status, due, goal_id, msg, finished_at)
         self.status_pub = rospy.Publisher(ns + "/status", GoalStatusArray, queue_size=10)
         self.result_pub = rospy.Publisher(ns + "/result", result_cls, queue_size=10)
@@ -52,6 +53,9 @@ class StandInServer:
 
     def on_goal(self, msg):
         gid = msg.goal_id.id
+        if self.hung:
+            print(self.prefix + " " + gid + self.describe(msg), flush=True)
+            return
         with self.lock:
             for other in self.goals.values():
                 if other["status"] == GoalStatus.ACTIVE:
@@ -132,7 +136,8 @@ class StandInRobot:
                 classes.update(genpy.dynamic.generate_dynamic("kobuki_msgs/" + name, text))
             self.servers.append(StandInServer(
                 "/dock_drive_action", classes["kobuki_msgs/AutoDockingActionGoal"],
-                classes["kobuki_msgs/AutoDockingActionResult"], args.delay, self.dock, "dock", self.lock))
+                classes["kobuki_msgs/AutoDockingActionResult"], args.delay, self.dock, "dock", self.lock,
+                hung=args.dock_hung))
             md5 = {name: classes["kobuki_msgs/" + name]._md5sum
                    for name in ("AutoDockingActionGoal", "AutoDockingActionResult")}
             print(f"genpy-md5 {md5['AutoDockingActionGoal']} {md5['AutoDockingActionResult']}", flush=True)
@@ -189,6 +194,7 @@ def main():
     parser.add_argument("--low-at-goal", type=int, default=0, metavar="N")
     parser.add_argument("--dock", default=None, metavar="DIR")
     parser.add_argument("--kobuki", default=None, metavar="DIR")
+    parser.add_argument("--dock-hung", action="store_true")
     args = parser.parse_args(rospy.myargv()[1:])
     rospy.init_node("move_base_stand_in")
     robot = StandInRobot(args)

@@ -104,6 +104,18 @@ def start_stand_in(master: Ros1Master, workdir: Path, *args: str, script: Path =
     return node
 
 
+def dock_definitions(workdir: Path) -> Path:
+    """kobuki_msgs' auto-docking action definitions as our typestore has them, in workdir/kobuki (Debian has no
+    kobuki_msgs: the stand-in generates its classes from these with genpy)."""
+    definitions = workdir / "kobuki"
+    definitions.mkdir()
+    store = patrol_typestore()
+    for name in ("AutoDockingActionGoal", "AutoDockingActionResult"):
+        text = store.generate_msgdef(f"kobuki_msgs/msg/{name}", ros_version=1)[0]
+        (definitions / f"{name}.msgdef").write_text(text, encoding="utf-8")
+    return definitions
+
+
 def stand_in_lines(node: RospyNode, kind: str, count: int) -> dict[str, list[list[str]]]:
     """The stand-in's printed lines (goal, cancel, result), split in words and grouped by kind, read until the
     ``count``-th line of ``kind``."""
@@ -322,12 +334,7 @@ def test_low_battery_docks_charges_undocks_and_resumes_as_in_the_simulator(ros1_
     sim_trace = machine_trace(read_events(tmp_path / "sim.jsonl"))
     [interrupted] = [t[1] for t in sim_trace if t[0] == "goal_result" and t[2] == "PREEMPTED"]
     k = int(str(interrupted).rsplit("_", 1)[1])
-    definitions = tmp_path / "kobuki"
-    definitions.mkdir()
-    store = patrol_typestore()
-    for name in ("AutoDockingActionGoal", "AutoDockingActionResult"):
-        text = store.generate_msgdef(f"kobuki_msgs/msg/{name}", ros_version=1)[0]
-        (definitions / f"{name}.msgdef").write_text(text, encoding="utf-8")
+    definitions = dock_definitions(tmp_path)
     node = start_stand_in(ros1_master, tmp_path, "--delay", "1.5", "--battery", "100", "--low-at-goal", str(k + 1),
                           "--dock", str(definitions), "--start", f"{STATION.x},{STATION.y},0")
     try:
@@ -350,14 +357,42 @@ def test_low_battery_docks_charges_undocks_and_resumes_as_in_the_simulator(ros1_
     assert fields["robot battery"] == "100.0 %"
 
 
+def test_a_docking_driver_that_never_acknowledges_ends_the_patrol_in_shutdown(ros1_master, ros1_robot_plugin,
+                                                                              tmp_path, caplog):
+    """The battery runs low, the patrol drives to the station and sends the dock goal, but the docking driver
+    holds its topics and never names the goal in a status (hung): after ack= seconds the dock goal ends ABORTED
+    with the reason, a cancel is sent for it, and the patrol shuts down as after any failed docking, instead of
+    waiting at the station for a verdict that never comes."""
+    goals = list(SHIPPED[:4])
+    poses = write_poses(tmp_path / "poses.txt", goals, STATION)
+    node = start_stand_in(ros1_master, tmp_path, "--delay", "0.5", "--battery", "100", "--low-at-goal", "2",
+                          "--dock", str(dock_definitions(tmp_path)), "--dock-hung")
+    try:
+        code, out, err = run_patrol_command(
+            [poses, "--map", MAP, "--laps", "1", "--resume-after-charging", "--events", str(tmp_path / "ros.jsonl"),
+             "--time-limit", f"{RUN_GUARD:g}",  # a hang guard
+             "--robot", f"ros1,master={ros1_master.uri},battery=/battery,ack=2,timeout={RUN_GUARD:g}"])
+        assert code == 0, err + node.diagnostics()
+        dock = node.wait_for("dock ", timeout=RUN_GUARD)
+        cancel = node.wait_for("cancel ", timeout=RUN_GUARD)
+    finally:
+        node.stop()
+    events = read_events(tmp_path / "ros.jsonl")
+    reason = ("the docking action did not acknowledge the docking goal within 2 s: is the docking action running "
+              "on /dock_drive_action?")
+    [result] = [e for e in events if e["type"] == "action_result" and e["action"] == "DockAction"]
+    assert (result["status"], result["text"]) == ("ABORTED", reason)
+    assert dock is not None and cancel == f"cancel {dock.split()[1]}", node.diagnostics()  # the goal it gave up
+    trace = machine_trace(events)
+    assert ("state_enter", "SHUTDOWN") in trace
+    assert ("state_enter", "WAIT_UNTIL_CHARGED") not in trace
+    assert summary_fields(out)["outcome"] == "shutdown"
+    assert reason in caplog.text
+
+
 def test_genpy_computes_our_auto_docking_md5sums(ros1_master, tmp_path):
     """Debian has no kobuki_msgs; genpy, given our definitions, computes the same md5sums as we and kobuki do."""
-    definitions = tmp_path / "kobuki"
-    definitions.mkdir()
-    store = patrol_typestore()
-    for name in ("AutoDockingActionGoal", "AutoDockingActionResult"):
-        (definitions / f"{name}.msgdef").write_text(
-            store.generate_msgdef(f"kobuki_msgs/msg/{name}", ros_version=1)[0], encoding="utf-8")
+    definitions = dock_definitions(tmp_path)
     node = RospyNode.start(STAND_IN, ros1_master, tmp_path, args=["--dock", str(definitions)], name="dock_stand_in")
     try:
         line = node.wait_for("genpy-md5 ", timeout=RUN_GUARD)  # printed before "ready"
