@@ -9,10 +9,14 @@ import math
 import numpy as np
 import pytest
 
+from navigation import amcl_global
 from navigation.amcl_global import (
+    COARSE_BEAMS,
+    COARSE_KEEP,
     GlobalSearchParams,
     along_a_line,
     ambiguity,
+    coarse_ring,
     free_area,
     search,
     second_opinion,
@@ -92,6 +96,50 @@ def test_a_robot_kidnapped_in_the_willow_office_is_found_again(shared_data):
     assert found and all(math.hypot(e["believed"]["x"] - e["true"]["x"], e["believed"]["y"] - e["true"]["y"]) < 0.3
                          for e in found)
     assert machine.end_reason == "" and machine.stats.goals_reached == 4
+
+
+# -- a large map's search: a thinned ring first ---------------------------------------------------------------
+
+def test_the_thinned_ring_keeps_every_other_view_while_they_cover_the_turn_and_a_third_of_the_beams():
+    field = ObstacleField(lost_room())
+    views, _ = turn_of_views(field, Pose2D(2.0, 2.0, 0.0))  # 12 views 30 degrees apart, 58 degrees wide
+    ring = coarse_ring(views, LASER)
+    assert [v.t for v in ring] == [float(k) for k in range(0, 12, 2)]  # 6 x 58 = 348 of 360 degrees
+    assert all(len(v.scan.ranges) == COARSE_BEAMS for v in ring)  # every 3rd of 30
+    assert np.allclose(ring[1].scan.angles(), views[2].scan.angles()[::3], rtol=0, atol=1e-12)
+    assert np.array_equal(ring[1].scan.ranges, views[2].scan.ranges[::3], equal_nan=True)
+    four, _ = turn_of_views(field, Pose2D(2.0, 2.0, 0.0), n=4)  # 90 degrees apart: every other would leave gaps
+    assert [v.t for v in coarse_ring(four, LASER)] == [0.0, 1.0, 2.0, 3.0]
+
+
+@pytest.mark.realdata
+def test_a_large_search_scores_most_poses_on_the_thinned_ring_and_finds_the_same_place(shared_data, monkeypatch):
+    """600,000 poses over the Willow Garage office: each is scored on 6 views of 10 beams, the best 20,000 on the
+    whole ring (12 x 30), about a sixth of the beam evaluations of one pass on the whole ring, and the place found
+    is the one the whole ring finds."""
+    pf = filter_on(load_map(shared_data / WILLOW))
+    truth = Pose2D(28.2, 1.7, 0.3)
+    views, odom_now = turn_of_views(pf.field, truth)
+    beams_scored = [0]
+    score = pf.beam_log_likelihoods
+
+    def counted(scan, x, y, yaw):  # type: ignore[no-untyped-def]
+        out = score(scan, x, y, yaw)
+        beams_scored[0] += out.size
+        return out
+
+    monkeypatch.setattr(pf, "beam_log_likelihoods", counted)
+    thinned_first = search(pf, views, odom_now, LASER)
+    with_thinning = beams_scored[0]
+    monkeypatch.setattr(amcl_global, "COARSE_KEEP", 10**9)  # one pass on the whole ring
+    beams_scored[0] = 0
+    whole = search(pf, views, odom_now, LASER)
+    assert with_thinning < 0.25 * beams_scored[0]
+    assert with_thinning > 600000 * 6 * COARSE_BEAMS  # the first pass, then COARSE_KEEP on the whole ring
+    assert COARSE_KEEP == 20000
+    now = compose(truth, odom_now)
+    for best in (thinned_first[0], whole[0]):
+        assert math.hypot(best.pose.x - now.x, best.pose.y - now.y) < 0.1 and best.agreement > 0.85
 
 
 # -- a corridor that looks the same all along ----------------------------------------------------------------
