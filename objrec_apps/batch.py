@@ -53,6 +53,7 @@ from .batch_worker import (
     FORMATS,
     STOPPED,
     SourceResult,
+    count_kept_lines,
     one_line,
     output_names,
     run_source,
@@ -521,6 +522,8 @@ def run_batch(plan: Plan, workers: int | None = None, scheduler: str | None = No
                     results[i].runs = starts.of(plan.outputs[i])
                     results[i].status = _killed_status(plan.out_dir / plan.outputs[i], plan.fmt, results[i].runs,
                                                        _worker_deaths(client, future.key))
+                    if results[i].runs and plan.fmt == "jsonl":  # what the kept file holds, not 0 frames
+                        count_kept_lines(results[i], plan.out_dir / plan.outputs[i])
                 except Exception as exc:  # the task could not run at all (objrec missing on a remote worker)
                     results[i].status = f"{FAILED}: {one_line(exc)}"
                 # Let the worker forget the row: a worker that dies later would otherwise make the scheduler

@@ -83,6 +83,32 @@ class SourceResult:
         return row
 
 
+def count_kept_lines(result: SourceResult, output: Path) -> None:
+    """Set a source's counts from the JSON Lines its run wrote before its worker process died (each whole line is
+    a frame, its ``objects`` the objects found): the summary then says what the kept file holds rather than 0
+    frames. A line cut short by the death, or one that is not a detection, is not counted."""
+    import json
+
+    frames = with_objects = objects = 0
+    try:
+        with open(output, encoding="utf-8", errors="replace") as stream:
+            for line in stream:
+                if not line.endswith("\n"):
+                    break
+                try:
+                    found = json.loads(line).get("objects")
+                except (ValueError, AttributeError):
+                    continue
+                if isinstance(found, list):
+                    frames += 1
+                    with_objects += bool(found)
+                    objects += len(found)
+    except OSError as exc:
+        log.debug("cannot count the lines of %s: %s", output, exc)
+        return
+    result.frames, result.frames_with_objects, result.objects = frames, with_objects, objects
+
+
 def one_line(exc: BaseException) -> str:
     """An error as one line: a corrupt recording's library error can span many, or be empty."""
     text = " ".join(str(exc).split())

@@ -17,7 +17,7 @@ import cv2
 import pytest
 
 from objrec_apps import detect
-from objrec_apps.batch_worker import output_names
+from objrec_apps.batch_worker import SourceResult, count_kept_lines, output_names
 from objrec_core import open_source
 
 BATCH = [sys.executable, "-m", "objrec_apps.batch"]
@@ -299,3 +299,18 @@ def test_output_names_are_unique_and_safe() -> None:
                           "frames/", "summary.csv"], ".jsonl")
     assert names == ["clip.jsonl", "clip-2.jsonl", "CLIP-3.jsonl", "clip-2-2.jsonl", "demo_seed_3_frames_4.jsonl",
                      "frames.jsonl", "summary.jsonl"]
+
+
+def test_a_crashed_sources_counts_are_what_its_kept_lines_hold(tmp_path: Path) -> None:
+    """A source whose worker process died: its row counts the whole detection lines its file kept; a line the
+    death cut short, or a line that is no detection, is not a frame."""
+    kept = tmp_path / "clip.jsonl"
+    lines = [{"header": {"seq": 0}, "objects": [{"name": "a"}, {"name": "b"}]}, {"header": {"seq": 1}, "objects": []},
+             {"header": {"seq": 2}, "objects": [{"name": "a"}]}]
+    kept.write_text("".join(json.dumps(line) + "\n" for line in lines) + "not json\n" + '{"header": {"seq": 3}, "obj',
+                    encoding="utf-8")
+    result = SourceResult("clip.bag", kept.name, status="failed: its worker process died running it, twice")
+    count_kept_lines(result, kept)
+    assert (result.frames, result.frames_with_objects, result.objects) == (3, 2, 3)
+    count_kept_lines(result, tmp_path / "gone.jsonl")  # nothing to read: the counts stay as they were
+    assert result.frames == 3

@@ -187,6 +187,8 @@ def batch_worker_killed_twice(tmp: Path) -> Case:
         if not crashed["status"].startswith("failed: its worker process died running it, twice") \
                 or crashed["runs"] != "2":
             problems.append(f"crashed row {crashed}")
+        if crashed["frames"] != "2":  # what its kept file holds, not 0
+            problems.append(f"the crashed row counts {crashed['frames']} frames, its file holds 2")
         if (fine["status"], fine["frames"]) != ("ok", "4"):
             problems.append(f"the other source's row {fine}")
         kept = (folder / "out" / "crash_frames_5.jsonl").read_text().splitlines()
