@@ -71,7 +71,7 @@ from .cli import (
     report,
     run_command,
 )
-from .outputs import check_topic, default_topic, require_rosbags
+from .outputs import check_topic, default_topic, open_typed_writer, require_rosbags
 from .scheduler_probe import DEFAULT_TIMEOUT, SchedulerUnusable, probe
 
 log = logging.getLogger("objrec.batch")
@@ -171,6 +171,8 @@ class Plan:
     topic: str | None = None
     frame_id: str = "camera"
     object_name: str = "object"
+    #: The system's detection message type: a never-started source's (empty) MCAP output declares its channel.
+    array_type: Any = None
 
 
 def _absolute_spec(spec: str, schemes: set[str]) -> str:
@@ -226,7 +228,7 @@ def make_plan(params: str, specs: Sequence[str], out: str, fmt: str = "jsonl", m
         raise UserError(str(exc)) from None
     _check_outputs(params, specs, worker_specs, out, outputs, FORMATS[fmt], schemes)
     return Plan(os.path.abspath(params), list(specs), worker_specs, _check_out_dir(out), outputs, fmt, max_frames,
-                topic, frame_id, system.object_name)
+                topic, frame_id, system.object_name, system.object_array_type)
 
 
 def _check_outputs(params: str, specs: Sequence[str], worker_specs: Sequence[str], out: str, outputs: Sequence[str],
@@ -410,19 +412,24 @@ def _worker_deaths(client: Any, key: str) -> int:
         return 0
 
 
-def _killed_status(output: Path, fmt: str, runs: int, deaths: int) -> str:
+def _killed_status(output: Path, plan: Plan, runs: int, deaths: int) -> str:
     """The status of a source whose worker processes kept dying: run (``runs`` times; its output is kept, with
     the frames written before the last death) or never started (the deaths were another source's, with it
-    queued on the same worker); a source that never started gets an empty JSON Lines output, as every failed
-    source has one."""
+    queued on the same worker); a source that never started gets an empty output (JSON Lines, or an MCAP file
+    with its channel and no message), as every failed source has one."""
     times = "twice" if deaths == 2 else f"{deaths} times" if deaths > 2 else "again"
     if runs:
         kept = f"; {output.name} keeps the frames done before" if output.exists() else ""
         return (f"{FAILED}: its worker process died running it, {'twice' if runs == 2 else f'{runs} times'} (a "
                 f"crash in a library reading it, or out of memory){kept}")
-    if fmt == "jsonl":
+    if plan.fmt == "jsonl":
         with contextlib.suppress(OSError):
             output.touch(exist_ok=True)
+    elif plan.array_type is not None and plan.topic and not output.exists():
+        try:
+            open_typed_writer(str(output), plan.array_type, plan.topic).close()
+        except (OSError, OutputError) as exc:
+            log.warning("cannot write the empty %s: %s", output, exc)
     return (f"{FAILED}: never started: the worker processes given it died {times}, running other sources "
             "(a crash in a library, or out of memory)")
 
@@ -520,7 +527,7 @@ def run_batch(plan: Plan, workers: int | None = None, scheduler: str | None = No
                     results[i].runs = max(1, starts.of(plan.outputs[i]))
                 except KilledWorker:
                     results[i].runs = starts.of(plan.outputs[i])
-                    results[i].status = _killed_status(plan.out_dir / plan.outputs[i], plan.fmt, results[i].runs,
+                    results[i].status = _killed_status(plan.out_dir / plan.outputs[i], plan, results[i].runs,
                                                        _worker_deaths(client, future.key))
                     if results[i].runs and plan.fmt == "jsonl":  # what the kept file holds, not 0 frames
                         count_kept_lines(results[i], plan.out_dir / plan.outputs[i])

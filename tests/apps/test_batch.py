@@ -314,3 +314,25 @@ def test_a_crashed_sources_counts_are_what_its_kept_lines_hold(tmp_path: Path) -
     assert (result.frames, result.frames_with_objects, result.objects) == (3, 2, 3)
     count_kept_lines(result, tmp_path / "gone.jsonl")  # nothing to read: the counts stay as they were
     assert result.frames == 3
+
+
+def test_a_never_started_source_gets_an_empty_output_in_either_format(project_root: Path, tmp_path: Path) -> None:
+    """Worker processes died running other sources before this one started: it still has its output, an empty
+    JSON Lines file or an MCAP file (read back by the mcap library) with its channel and no message."""
+    from mcap.reader import make_reader
+
+    from objrec_apps.batch import _killed_status, make_plan
+
+    for fmt in ("jsonl", "mcap"):
+        plan = make_plan(str(project_root / "params/hsv_demo.yaml"), ["demo:frames=2"], str(tmp_path / fmt), fmt)
+        output = plan.out_dir / plan.outputs[0]
+        status = _killed_status(output, plan, 0, 2)
+        assert status.startswith("failed: never started: the worker processes given it died twice"), status
+        if fmt == "jsonl":
+            assert output.read_bytes() == b""
+            continue
+        with open(output, "rb") as stream:
+            summary = make_reader(stream).get_summary()
+        assert summary is not None and summary.statistics is not None
+        assert summary.statistics.message_count == 0
+        assert [c.topic for c in summary.channels.values()] == [plan.topic]
