@@ -31,11 +31,11 @@ from .features.geometry import (
     inlier_coverage,
     inside_convex,
     overlap,
-    project,
+    project_homogeneous,
     unavailable_homography_methods,
 )
 from .features.matching import MATCHERS, Matches, TrainedMatcher
-from .features.refine import refine_homography, refine_photometric
+from .features.refine import align_photometric, refine_homography
 from .features.result import DetectionStatus, FeatureMatch, Instance
 from .features.target import (
     Target,
@@ -56,7 +56,7 @@ from .features.types import (
     unavailable_feature_types,
 )
 from .features.view_synthesis import MAX_VIEW_TILTS, VIEW_LONGITUDES
-from .messages import DetectedObject2D, Polygon
+from .messages import DetectedObject2D
 
 log = logging.getLogger(__name__)
 
@@ -66,6 +66,21 @@ DEBUG_VIEWS = ("side_by_side", "keypoints")
 NO_TARGET = "no target: select one in objrec-define (drag a rectangle around the object)"
 #: Attempts per frame beyond ``max_instances``: a copy found again (a duplicate) costs one and is not reported.
 EXTRA_ATTEMPTS = 2
+
+
+@dataclass(frozen=True)
+class _Settings:
+    """What a parameter snapshot decides that ``detect`` would otherwise work out again every frame: made once
+    per snapshot (a snapshot is immutable and replaced on every change, so its identity says when)."""
+
+    params: Any
+    config: FeatureConfig
+    limits: PolygonLimits
+
+    @classmethod
+    def of(cls, params: Any) -> _Settings:
+        limits = PolygonLimits(params.min_area, params.max_area_fraction, params.min_corner_angle)
+        return cls(params, FeatureConfig.from_parameters(params), limits)
 
 
 @dataclass(frozen=True)
@@ -214,6 +229,7 @@ class FeatureDetector(ImageDetector):
         self._model_lock = threading.RLock()
         self._failed: tuple[FeatureConfig, str] | None = None  # a recompute that failed, not retried per frame
         self._extractors = threading.local()  # each frame thread's own cv2.Feature2D, with its configuration
+        self._settings: _Settings | None = None  # of the last snapshot a frame was detected with
         super().__init__(id, object_name=object_name, **parameters)
 
     # -- parameters ------------------------------------------------------------------------------------
@@ -279,7 +295,7 @@ class FeatureDetector(ImageDetector):
         model = self._model
         if (
             model is not None
-            and model.target.config == config
+            and (model.target.config is config or model.target.config == config)
             and model.matcher is not None
             and model.matcher.kind == matcher_kind
         ):
@@ -316,7 +332,7 @@ class FeatureDetector(ImageDetector):
     def _frame_extractor(self, config: FeatureConfig) -> Any:
         """This thread's keypoint extractor: OpenCV's are not safe to share between threads running at once."""
         cached = getattr(self._extractors, "cached", None)
-        if cached is None or cached[0] != config:
+        if cached is None or (cached[0] is not config and cached[0] != config):  # one snapshot: one config object
             cached = (config, create_feature2d(config))
             self._extractors.cached = cached
         return cached[1]
@@ -331,7 +347,10 @@ class FeatureDetector(ImageDetector):
         and is not reported."""
         _check_image(frame)
         p = self.params
-        config = FeatureConfig.from_parameters(p)
+        settings = self._settings
+        if settings is None or settings.params is not p:
+            settings = self._settings = _Settings.of(p)  # one assignment: another frame thread sees old or new
+        config = settings.config
         model = self._model_for(config, p.matcher)
         if isinstance(model, str):
             return self._finish(FeatureMatch(DetectionStatus.NO_TARGET, model, frame.shape), None)
@@ -359,7 +378,7 @@ class FeatureDetector(ImageDetector):
                 break
             matches = model.matcher.select(candidates, descriptors, p.cross_check, available if instances else None)
             remaining = int(available.sum()) if instances and available is not None else len(keypoints)
-            attempt = self._attempt(target, frame_points, matches, gray, frame.shape, remaining)
+            attempt = self._attempt(target, frame_points, matches, gray, frame.shape, remaining, settings.limits)
             if not isinstance(attempt, Instance):
                 failed = attempt
                 break
@@ -386,7 +405,10 @@ class FeatureDetector(ImageDetector):
             DetectionStatus.FOUND, None, frame.shape, frame_points, first.matches, first.inliers, first.homography,
             first.quadrilateral, first.coverage, tuple(instances), next_reason,
         )
-        objects = [DetectedObject2D(self.object_name, Polygon.from_xy(i.quadrilateral.tolist())) for i in instances]
+        # Each outline is handed over as it is (no copy): nothing changes a found copy's quadrilateral.
+        objects = DetectedObject2D.outlined(
+            self.object_name, [i.quadrilateral for i in instances], [False] * len(instances)
+        )
         return self._finish(found, target, objects)
 
     def _attempt(
@@ -397,6 +419,7 @@ class FeatureDetector(ImageDetector):
         gray: np.ndarray,
         frame_shape: tuple[int, ...],
         keypoints: int,
+        limits: PolygonLimits,
     ) -> Instance | FeatureMatch:
         """One copy of the target from these matches in the frame ``gray``, or the failed attempt with the reason:
         every check a copy must pass, in order. ``keypoints`` is how many frame keypoints were still available."""
@@ -427,12 +450,13 @@ class FeatureDetector(ImageDetector):
                 f"({p.homography_method}, homography_max_iterations is {p.homography_max_iterations})"
             )
             return failed(DetectionStatus.NO_HOMOGRAPHY, reason, inliers=inliers, homography=homography)
-        count = int(inliers.sum())
+        count = np.count_nonzero(inliers)
         if count < p.min_inliers:
             reason = f"too few inliers: {count} of {len(matches)} matches, min_inliers is {p.min_inliers}"
             return failed(DetectionStatus.TOO_FEW_INLIERS, reason, inliers=inliers, homography=homography)
         roi = target.roi
-        coverage = inlier_coverage(source[inliers], roi.width * roi.height)
+        inlier_source = source[inliers]
+        coverage = inlier_coverage(inlier_source, roi.width * roi.height)
         if coverage < p.min_inlier_coverage:
             reason = (
                 f"inliers bunched: they span {coverage:.0%} of the target, "
@@ -440,14 +464,13 @@ class FeatureDetector(ImageDetector):
             )
             return failed(DetectionStatus.BUNCHED_INLIERS, reason, inliers=inliers, homography=homography,
                           coverage=coverage)
-        quadrilateral, w = project(homography, target.corners())
-        limits = PolygonLimits(p.min_area, p.max_area_fraction, p.min_corner_angle)
+        quadrilateral, w = project_homogeneous(homography, target.corners_homogeneous)
         problem = check_quadrilateral(quadrilateral, w, frame_shape, limits)
         if problem is not None:
             return failed(DetectionStatus.DEGENERATE_POLYGON, f"degenerate polygon: {problem}", inliers=inliers,
                           homography=homography, coverage=coverage, quadrilateral=quadrilateral)
         if p.photometric_refinement:
-            pairs = (source[inliers], destination[inliers])
+            pairs = (inlier_source, destination[inliers])
             homography, quadrilateral = self._aligned(target, gray, homography, quadrilateral, limits, pairs)
         return Instance(matches, inliers, homography, quadrilateral, coverage)
 
@@ -457,12 +480,12 @@ class FeatureDetector(ImageDetector):
         The fit's inliers (target and frame positions) judge a correction larger than reprojection_threshold."""
         roi = target.roi
         threshold = self.params.reprojection_threshold
-        refined, why = refine_photometric(target.gray, (roi.x, roi.y, roi.width, roi.height), gray, homography,
-                                          2.0 * threshold, inlier_pairs, threshold)
-        if refined is None:
+        refined, outline, why = align_photometric(target.gray, (roi.x, roi.y, roi.width, roi.height), gray, homography,
+                                                  2.0 * threshold, inlier_pairs, threshold, quadrilateral)
+        if refined is None or outline is None:
             log.debug("%s: keypoint fit kept: %s", self.label, why)
             return homography, quadrilateral
-        aligned, w = project(refined, target.corners())
+        aligned, w = outline
         if check_quadrilateral(aligned, w, gray.shape, limits) is not None:
             return homography, quadrilateral
         return refined, aligned

@@ -20,14 +20,20 @@ from .types import FeatureUnavailable
 #: Homography estimators by the name used in parameter files (the cv2 constant of the same name).
 HOMOGRAPHY_METHODS: tuple[str, ...] = ("RANSAC", "USAC_MAGSAC", "LMEDS", "RHO")
 
+_FLAGS: dict[str, int] = {}  # the constants looked up so far: estimate_homography asks every frame
+
 
 def homography_flag(method: str) -> int:
     """The cv2 constant for a method name; USAC methods need OpenCV 4.5 or newer."""
+    flag = _FLAGS.get(method)
+    if flag is not None:
+        return flag
     if method not in HOMOGRAPHY_METHODS:
         raise ValueError(f"unknown homography method {method!r} (known: {', '.join(HOMOGRAPHY_METHODS)})")
     flag = getattr(cv2, method, None)
     if flag is None:
         raise FeatureUnavailable(f"homography method {method} is not in the installed OpenCV {cv2.__version__}")
+    _FLAGS[method] = int(flag)
     return int(flag)
 
 
@@ -77,7 +83,7 @@ def estimate_homography(
         )
     except cv2.error:  # e.g. all points on one line: no homography, which is a failure, not a crash
         return None, np.zeros(count, dtype=bool)
-    if matrix is None or mask is None or not np.all(np.isfinite(matrix)):
+    if matrix is None or mask is None or not np.isfinite(matrix).all():
         return None, np.zeros(count, dtype=bool)
     return matrix, mask.reshape(-1).astype(bool)
 
@@ -93,53 +99,80 @@ class PolygonLimits:
 
 def project(matrix: np.ndarray, corners: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Corners through the homography: the projected points and their homogeneous w (w <= 0: behind)."""
-    ones = np.ones((len(corners), 1), dtype=np.float64)
-    homogeneous = np.hstack([corners.astype(np.float64), ones]) @ matrix.T
-    w = homogeneous[:, 2]
+    return project_homogeneous(matrix, homogeneous_points(corners))
+
+
+def homogeneous_points(points: np.ndarray) -> np.ndarray:
+    """``points`` (N x 2) as N x 3 float64 rows (x, y, 1), for ``project_homogeneous``."""
+    homogeneous = np.empty((len(points), 3))
+    homogeneous[:, :2] = points
+    homogeneous[:, 2] = 1.0
+    return homogeneous
+
+
+def project_homogeneous(matrix: np.ndarray, homogeneous: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``project`` of points given as N x 3 float64 rows (x, y, 1) (``homogeneous_points``): points projected
+    again and again (a target's outline, every frame) are made homogeneous once. The same product and
+    division as ``project``, to the bit."""
+    projected = homogeneous @ matrix.T
+    w = projected[:, 2]
+    if w.all() and np.isfinite(w).all():  # nothing to divide by zero: silencing NumPy costs more than dividing
+        return projected[:, :2] / w[:, None], w
     with np.errstate(divide="ignore", invalid="ignore"):
-        points = homogeneous[:, :2] / w[:, None]
-    return points, w
+        return projected[:, :2] / w[:, None], w
 
 
 def check_quadrilateral(
     points: np.ndarray, w: np.ndarray, frame_shape: tuple[int, ...], limits: PolygonLimits
 ) -> str | None:
-    """None where the projected rectangle is a plausible view of a flat object, else what is wrong.
+    """None where the projected rectangle (4 corners) is a plausible view of a flat object, else what is wrong.
 
-    Plain floats rather than numpy: for four points the arithmetic is cheaper than numpy's call overhead,
-    and this runs on every frame.
+    Plain floats from one ``tolist``, written out corner by corner: for four points numpy's call overhead,
+    and even Python's loops and generators, cost more than the arithmetic, and this runs twice on every
+    frame a copy is found.
     """
-    if min(w.tolist()) <= 1e-9 or not np.all(np.isfinite(points)):
+    isfinite, hypot = math.isfinite, math.hypot
+    (x0, y0), (x1, y1), (x2, y2), (x3, y3) = points.tolist()
+    if min(w.tolist()) <= 1e-9 or not (
+        isfinite(x0) and isfinite(y0) and isfinite(x1) and isfinite(y1)
+        and isfinite(x2) and isfinite(y2) and isfinite(x3) and isfinite(y3)
+    ):
         return "a corner projects to infinity (the homography folds the target behind the camera)"
-    pts = [(float(x), float(y)) for x, y in points.tolist()]
-    count = len(pts)
-    edges = [(pts[(i + 1) % count][0] - pts[i][0], pts[(i + 1) % count][1] - pts[i][1]) for i in range(count)]
-    lengths = [math.hypot(ex, ey) for ex, ey in edges]
-    if min(lengths) < 1.0:
-        return f"a side is shorter than a pixel ({min(lengths):.2f} px)"
-    cross = [edges[i][0] * edges[(i + 1) % count][1] - edges[i][1] * edges[(i + 1) % count][0] for i in range(count)]
-    if all(c < 0 for c in cross):
+    # Edge i runs from corner i to corner i + 1.
+    ax, ay, bx, by, cx, cy, dx, dy = x1 - x0, y1 - y0, x2 - x1, y2 - y1, x3 - x2, y3 - y2, x0 - x3, y0 - y3
+    la, lb, lc, ld = hypot(ax, ay), hypot(bx, by), hypot(cx, cy), hypot(dx, dy)
+    shortest = min(la, lb, lc, ld)
+    if shortest < 1.0:
+        return f"a side is shorter than a pixel ({shortest:.2f} px)"
+    ab, bc, cd, da = ax * by - ay * bx, bx * cy - by * cx, cx * dy - cy * dx, dx * ay - dy * ax
+    if ab < 0 and bc < 0 and cd < 0 and da < 0:
         return "mirrored: the homography flips the target over"
-    if not all(c > 0 for c in cross):
+    if not (ab > 0 and bc > 0 and cd > 0 and da > 0):
         return "not convex (the outline crosses itself or bends inwards)"
-    area = 0.5 * abs(sum(x0 * y1 - x1 * y0 for (x0, y0), (x1, y1) in zip(pts, pts[1:] + pts[:1], strict=True)))
+    area = 0.5 * abs(x0 * y1 - x1 * y0 + (x1 * y2 - x2 * y1) + (x2 * y3 - x3 * y2) + (x3 * y0 - x0 * y3))
     if area < limits.min_area:
         return f"area {area:.0f} px² is below min_area {limits.min_area:.0f} px²"
     frame_area = float(frame_shape[0] * frame_shape[1])
     if area > limits.max_area_fraction * frame_area:
         return f"area {area:.0f} px² is more than {limits.max_area_fraction:g} times the frame's"
-    # The interior angle at corner i+1 lies between the reversed edge i and edge i+1.
-    angles = []
-    for i in range(count):
-        (ax, ay), (bx, by) = edges[i], edges[(i + 1) % count]
-        cos = -(ax * bx + ay * by) / (lengths[i] * lengths[(i + 1) % count])
-        angles.append(math.degrees(math.acos(max(-1.0, min(1.0, cos)))))
+    # The interior angle at corner i + 1 lies between the reversed edge i and edge i + 1.
+    angles = (
+        _angle(-(ax * bx + ay * by) / (la * lb)),
+        _angle(-(bx * cx + by * cy) / (lb * lc)),
+        _angle(-(cx * dx + cy * dy) / (lc * ld)),
+        _angle(-(dx * ax + dy * ay) / (ld * la)),
+    )
     if min(angles) < limits.min_corner_angle or max(angles) > 180.0 - limits.min_corner_angle:
         return (
             f"a corner angle of {min(angles):.0f}°..{max(angles):.0f}° lies outside "
             f"{limits.min_corner_angle:g}°..{180 - limits.min_corner_angle:g}° (squashed)"
         )
     return None
+
+
+def _angle(cos: float) -> float:
+    """The angle in degrees of a cosine that rounding may have pushed past +-1."""
+    return math.degrees(math.acos(max(-1.0, min(1.0, cos))))
 
 
 def inlier_coverage(target_points: np.ndarray, roi_area: float) -> float:

@@ -132,13 +132,17 @@ class TrainedMatcher:
             return Matches.empty()
         if ratio is None:
             keep = nearest[:, 0] >= 0
-        else:  # compared in double precision, as the DMatch floats were
-            best = distances[:, 0].astype(np.float64)
-            keep = (nearest[:, 1] >= 0) & (best < ratio * distances[:, 1].astype(np.float64))
-        query = np.flatnonzero(keep).astype(np.int32)
+        else:  # compared in double precision, as the DMatch floats were (both columns converted in one call)
+            both = distances.astype(np.float64)
+            keep = both[:, 0] < ratio * both[:, 1]
+            if self._distance_type != cv2.CV_32S:  # integer distances never miss a neighbour: K <= targets here
+                keep &= nearest[:, 1] >= 0  # a float one can (a NaN distance is never nearer than any)
+        query = keep.nonzero()[0]
         if len(query) == 0:
             return Matches.empty()
-        return Matches(query, nearest[query, 0].astype(np.int32), distances[query, 0].astype(np.float32))
+        # The indices are int32 already (CV_32S), the distances float32 only for float descriptors: no copies.
+        return Matches(query.astype(np.int32), nearest[query, 0].astype(np.int32, copy=False),
+                       distances[query, 0].astype(np.float32, copy=False))
 
     def select(
         self,
@@ -158,8 +162,10 @@ class TrainedMatcher:
             return Matches.empty()
         # One frame keypoint per target keypoint: sort by target then distance, keep each target's first.
         order = np.lexsort((distance, target_idx))
-        first = np.ones(len(order), dtype=bool)
-        first[1:] = target_idx[order][1:] != target_idx[order][:-1]
+        ordered = target_idx[order]
+        first = np.empty(len(order), dtype=bool)
+        first[0] = True
+        np.not_equal(ordered[1:], ordered[:-1], out=first[1:])
         keep = order[first]
         frame_idx, target_idx, distance = frame_idx[keep], target_idx[keep], distance[keep]
         if cross_check:

@@ -12,13 +12,14 @@ and refused where it carries them away (pulled onto a copy of the target hiding 
 
 from __future__ import annotations
 
+import functools
 import logging
 import math
 
 import cv2
 import numpy as np
 
-from .geometry import project
+from .geometry import homogeneous_points, project_homogeneous
 
 log = logging.getLogger(__name__)
 
@@ -36,29 +37,45 @@ def refine_homography(
     Weighing each match by its keypoints' sizes (coarse pyramid levels place keypoints less precisely) was
     tried: it moved the corners of pasted box.png copies by under 0.1 px and cost twice OpenCV's refit.
     """
-    source = np.ascontiguousarray(target_points, dtype=np.float64).reshape(-1, 2)
-    destination = np.ascontiguousarray(frame_points, dtype=np.float64).reshape(-1, 2)
+    source, destination = _as_points(target_points), _as_points(frame_points)
+    homogeneous = homogeneous_points(source)  # made once (in float64) for every round's reprojection
     best, best_mask = matrix, inliers
+    best_count = np.count_nonzero(best_mask)
     for _ in range(REFINE_ROUNDS):
-        if int(best_mask.sum()) < 5:  # 4 points fit exactly: nothing to average
+        if best_count < 5:  # 4 points fit exactly: nothing to average
             break
         try:
             refined, _ = cv2.findHomography(source[best_mask], destination[best_mask], 0)
         except cv2.error:
             break
-        if refined is None or not np.all(np.isfinite(refined)):
+        if refined is None or not np.isfinite(refined).all():
             break
-        projected, w = project(refined, source)
-        with np.errstate(invalid="ignore"):
-            error = np.hypot(*(projected - destination).T)
+        projected = homogeneous @ refined.T  # project_homogeneous's product and division; a match whose w
+        w = projected[:, 2]  # is 0 (projected to infinity) is no inlier, so no w need be checked first
+        if w.all():  # nothing divided by zero (the usual case): no need to silence NumPy, which costs more
+            offset = projected[:, :2] / w[:, None] - destination
+        else:
+            with np.errstate(divide="ignore", invalid="ignore"):
+                offset = projected[:, :2] / w[:, None] - destination
+        error = np.hypot(offset[:, 0], offset[:, 1])
         mask = (w > 0) & (error < threshold)
-        if mask.sum() < best_mask.sum():
+        count = np.count_nonzero(mask)
+        if count < best_count:
             break
-        settled = np.array_equal(mask, best_mask)
-        best, best_mask = refined, mask
+        settled = count == best_count and not (mask != best_mask).any()
+        best, best_mask, best_count = refined, mask, count
         if settled:
             break
     return best, best_mask
+
+
+def _as_points(points: np.ndarray) -> np.ndarray:
+    """N x 2 points as they are where float32 or float64 (``findHomography`` works in float32 whichever it is
+    handed, and NumPy widens float32 exactly where they meet float64), else in float64: no copy per frame."""
+    points = np.asarray(points)
+    if points.dtype != np.float32 and points.dtype != np.float64:
+        points = points.astype(np.float64)
+    return points.reshape(-1, 2)
 
 
 #: Most template pixels the photometric alignment works on; a larger selection is aligned at reduced resolution.
@@ -107,12 +124,27 @@ def refine_photometric(
     resolution it has in the frame (no more than PHOTOMETRIC_MAX_PIXELS), which is all the detail the frame can
     match and keeps the cost to a few ms.
     """
+    refined, _, why = align_photometric(target_gray, roi, frame_gray, matrix, max_shift, inlier_pairs, threshold)
+    return refined, why
+
+
+def align_photometric(
+    target_gray: np.ndarray, roi: tuple[int, int, int, int], frame_gray: np.ndarray, matrix: np.ndarray,
+    max_shift: float, inlier_pairs: tuple[np.ndarray, np.ndarray] | None = None, threshold: float | None = None,
+    start: np.ndarray | None = None,
+) -> tuple[np.ndarray | None, tuple[np.ndarray, np.ndarray] | None, str]:
+    """``refine_photometric`` for a detector that has projected the selection's outline already and checks the
+    refined one next: ``start`` is the outline ``matrix`` gives (``project(matrix, rect_corners(roi))[0]``;
+    projected here where None), and the answer carries the refined homography's outline (its points and their
+    w) besides the homography and why not. The same computation as ``refine_photometric``, minus two projections."""
     x, y, width, height = roi
-    corners = np.array([[x - 0.5, y - 0.5], [x + width - 0.5, y - 0.5], [x + width - 0.5, y + height - 0.5],
-                        [x - 0.5, y + height - 0.5]])
-    start, _ = project(matrix, corners)
-    (ax, ay), (bx, by) = start[2] - start[0], start[3] - start[1]
-    seen_area = 0.5 * abs(float(ax * by - ay * bx))  # half the cross product of the diagonals
+    corners = _selection_corners(x, y, width, height)
+    if start is None:
+        start, _ = project_homogeneous(matrix, corners)
+    # Plain floats for the window's arithmetic (the same as NumPy's float64, without a call per number).
+    (sx0, sy0), (sx1, sy1), (sx2, sy2), (sx3, sy3) = start.tolist()
+    ax, ay, bx, by = sx2 - sx0, sy2 - sy0, sx3 - sx1, sy3 - sy1
+    seen_area = 0.5 * abs(ax * by - ay * bx)  # half the cross product of the diagonals
     k = min(1.0, math.sqrt(seen_area / (width * height)), math.sqrt(PHOTOMETRIC_MAX_PIXELS / (width * height)))
     template = target_gray[y:y + height, x:x + width]
     if k < 1.0:
@@ -120,53 +152,67 @@ def refine_photometric(
                               interpolation=cv2.INTER_AREA)
     kx, ky = template.shape[1] / width, template.shape[0] / height
     # Template pixel centre (i, j) lies at target image coordinates ((i + 0.5) / kx - 0.5 + x, ...).
-    to_target = np.array([[1 / kx, 0.0, 0.5 / kx - 0.5 + x], [0.0, 1 / ky, 0.5 / ky - 0.5 + y], [0.0, 0.0, 1.0]])
-    from_target = np.array([[kx, 0.0, -kx * to_target[0, 2]], [0.0, ky, -ky * to_target[1, 2]], [0.0, 0.0, 1.0]])
+    tx, ty = 0.5 / kx - 0.5 + x, 0.5 / ky - 0.5 + y
+    to_target = np.array([[1 / kx, 0.0, tx], [0.0, 1 / ky, ty], [0.0, 0.0, 1.0]])
+    from_target = np.array([[kx, 0.0, -kx * tx], [0.0, ky, -ky * ty], [0.0, 0.0, 1.0]])
     margin = PHOTOMETRIC_MARGIN + max_shift
     frame_height, frame_width = frame_gray.shape[:2]
-    x0, y0 = max(0, int(start[:, 0].min() - margin)), max(0, int(start[:, 1].min() - margin))
-    x1 = min(frame_width, math.ceil(start[:, 0].max() + margin) + 1)
-    y1 = min(frame_height, math.ceil(start[:, 1].max() + margin) + 1)
+    x0, y0 = max(0, int(min(sx0, sx1, sx2, sx3) - margin)), max(0, int(min(sy0, sy1, sy2, sy3) - margin))
+    x1 = min(frame_width, math.ceil(max(sx0, sx1, sx2, sx3) + margin) + 1)
+    y1 = min(frame_height, math.ceil(max(sy0, sy1, sy2, sy3) + margin) + 1)
     if x1 - x0 < 8 or y1 - y0 < 8:
-        return None, "the outline lies outside the frame"
+        return None, None, "the outline lies outside the frame"
     window = frame_gray[y0:y1, x0:x1]
     shift_to_window = np.array([[1.0, 0.0, -x0], [0.0, 1.0, -y0], [0.0, 0.0, 1.0]])
     unshift = np.array([[1.0, 0.0, x0], [0.0, 1.0, y0], [0.0, 0.0, 1.0]])
     criteria = (cv2.TERM_CRITERIA_EPS | cv2.TERM_CRITERIA_COUNT, PHOTOMETRIC_ITERATIONS, PHOTOMETRIC_EPSILON)
-    try:
+    try:  # the start is made here: findTransformECC writes its answer into the matrix it is given
         correlation, warp = cv2.findTransformECC(
             template, window, (shift_to_window @ matrix @ to_target).astype(np.float32), cv2.MOTION_HOMOGRAPHY,
             criteria, None, 3,
         )
     except cv2.error:  # no convergence, or a singular step: the keypoint fit stands
-        return None, "the photometric alignment did not converge"
-    if not np.isfinite(correlation) or correlation < PHOTOMETRIC_MIN_CORRELATION:
-        return None, f"the photometric alignment ends at correlation {correlation:.2f}"
+        return None, None, "the photometric alignment did not converge"
+    if not math.isfinite(correlation) or correlation < PHOTOMETRIC_MIN_CORRELATION:
+        return None, None, f"the photometric alignment ends at correlation {correlation:.2f}"
     refined = unshift @ warp.astype(np.float64) @ from_target
-    if not np.all(np.isfinite(refined)) or abs(refined[2, 2]) < 1e-12:
-        return None, "the photometric alignment gave no finite homography"
+    if not np.isfinite(refined).all() or abs(refined[2, 2]) < 1e-12:
+        return None, None, "the photometric alignment gave no finite homography"
     refined /= refined[2, 2]
-    moved, w = project(refined, corners)
-    if np.any(w <= 0):
-        return None, "the photometric alignment folds the selection"
-    shift = float(np.hypot(*(moved - start).T).max())
+    moved = corners @ refined.T  # project_homogeneous, with no w to check: any w <= 0 is refused before dividing
+    w = moved[:, 2]
+    if (w <= 0).any():
+        return None, None, "the photometric alignment folds the selection"
+    moved = moved[:, :2] / w[:, None]
+    offset = moved - start
+    shift = float(np.hypot(offset[:, 0], offset[:, 1]).max())
     if inlier_pairs is not None and len(inlier_pairs[0]) < PHOTOMETRIC_MIN_JUDGES:
         inlier_pairs = None  # too few to judge by
     # A move within the reprojection threshold stays inside the band the keypoints themselves are placed in.
     if inlier_pairs is not None and threshold is not None and shift > threshold:
         disagreement = _keypoint_disagreement(matrix, refined, inlier_pairs, threshold)
         if disagreement is not None:
-            return None, f"the photometric alignment moves a corner {shift:.1f} px, and {disagreement}"
+            return None, None, f"the photometric alignment moves a corner {shift:.1f} px, and {disagreement}"
     if shift > max_shift:
         refused = f"the photometric alignment moves a corner {shift:.1f} px (more than {max_shift:g})"
         if inlier_pairs is None or threshold is None:
-            return None, f"{refused}, with fewer than {PHOTOMETRIC_MIN_JUDGES} keypoint inliers to judge it by"
+            return None, None, f"{refused}, with fewer than {PHOTOMETRIC_MIN_JUDGES} keypoint inliers to judge it by"
         start_warp = (shift_to_window @ matrix @ to_target).astype(np.float32)
         gain = _correlation(template, window, warp) - _correlation(template, window, start_warp)
         if gain < PHOTOMETRIC_MIN_GAIN:
-            return None, f"{refused}, and the correlation rises only {gain:.3f}"
+            return None, None, f"{refused}, and the correlation rises only {gain:.3f}"
         log.debug("photometric correction of %.1f px taken: correlation +%.3f, the keypoints agree", shift, gain)
-    return refined, ""
+    return refined, (moved, w), ""
+
+
+@functools.lru_cache(maxsize=16)
+def _selection_corners(x: int, y: int, width: int, height: int) -> np.ndarray:
+    """The outline of the selection's pixels (``rect_corners``) as 4 x 3 rows (x, y, 1), made once per selection
+    (read-only: every frame shares it)."""
+    corners = np.array([[x - 0.5, y - 0.5, 1.0], [x + width - 0.5, y - 0.5, 1.0],
+                        [x + width - 0.5, y + height - 0.5, 1.0], [x - 0.5, y + height - 0.5, 1.0]])
+    corners.flags.writeable = False
+    return corners
 
 
 def _correlation(template: np.ndarray, window: np.ndarray, warp: np.ndarray) -> float:

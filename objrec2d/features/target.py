@@ -23,7 +23,7 @@ from strictio import InputError
 
 from ..base import as_gray
 from ..sources import decode_image
-from .geometry import rect_corners
+from .geometry import homogeneous_points, rect_corners
 from .types import FeatureConfig, create_feature2d, descriptor_norm
 from .view_synthesis import tilted_features
 
@@ -65,6 +65,14 @@ class Target:
     def corners(self) -> np.ndarray:
         """The selection's outline in ``image`` coordinates (4 x 2): what the homography projects."""
         return rect_corners(self.roi)
+
+    @functools.cached_property
+    def corners_homogeneous(self) -> np.ndarray:
+        """``corners()`` as 4 x 3 rows (x, y, 1), made once: what ``project_homogeneous`` takes every frame
+        (read-only, as every frame shares it)."""
+        corners = homogeneous_points(self.corners())
+        corners.flags.writeable = False
+        return corners
 
     def with_config(self, config: FeatureConfig) -> Target:
         """The same image and selection, with keypoints recomputed for another configuration."""

@@ -32,7 +32,7 @@ from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
-#: What a case may take at most (the bounds promised for hostile input): CPU seconds of the command, and its peak memory.
+#: What a case may take at most (the bounds promised for hostile input): CPU seconds of the command and peak memory.
 CPU_SECONDS_LIMIT = 10.0
 MEMORY_LIMIT_MB = 500.0
 #: Where a child is killed outright: far above the limit, far below what would hurt a shared machine.
