@@ -11,20 +11,11 @@ import numpy as np
 import pytest
 
 from objrec3d import ShapeDetector
+from objrec3d.box_rival import BOX_TURNS, box_cost, box_starts
 from objrec3d.cloud import PointCloud
-from objrec3d.cluster_fit import (
-    BOX_TURNS,
-    PIXEL_ANGLE,
-    ClusterSettings,
-    _unit,
-    box_cost,
-    box_starts,
-    depth_sigma,
-    fit_cylinder,
-    fit_piece,
-    truncated_cost,
-)
+from objrec3d.cluster_fit import PIXEL_ANGLE, ClusterSettings, depth_sigma, fit_cylinder, fit_piece
 from objrec3d.normals import grid_normals
+from objrec3d.ray_residuals import truncated_cost, unit
 from objrec3d.silhouette import inside_outline
 
 NOISE = 0.0015
@@ -148,7 +139,7 @@ def test_a_far_upright_box_is_no_cylinder_however_it_is_turned(yaw: float) -> No
 
 def test_the_box_rival_finds_a_box_at_least_as_good_as_the_cylinder_on_box_points() -> None:
     points, _, _ = _view(_box((0.05, 0.03, 0.06), 40.0), 2.7, 11)
-    rays = _unit(points)
+    rays = unit(points)
     sigma = depth_sigma(points, np.zeros(3), NOISE)
     up = _camera(2.7, 35.0)[1] @ np.array([0.0, 0.0, 1.0])  # the table's up in the camera frame
     cylinder = fit_cylinder(points, rays, sigma, up, np.zeros(3))
@@ -159,7 +150,7 @@ def test_the_box_rival_finds_a_box_at_least_as_good_as_the_cylinder_on_box_point
 def test_box_starts_turn_about_the_up_axis_over_a_quarter_turn() -> None:
     rng = np.random.default_rng(0)
     points = rng.normal(0.0, 0.03, (200, 3)) + np.array([0.0, 0.0, 2.0])
-    up = _unit(np.array([0.0, -0.8, -0.6]))
+    up = unit(np.array([0.0, -0.8, -0.6]))
     starts = box_starts(points, up, np.zeros(3))
     assert len(starts) == BOX_TURNS
     firsts = []
@@ -198,3 +189,15 @@ def test_an_object_the_search_found_is_not_found_again_from_what_it_left() -> No
     for distance, radius, seed in ((1.8, 0.045, 1), (2.5, 0.05, 0)):
         found = ShapeDetector(max_objects=3).find(cylinder_scene(seed, distance, radius, 0.12, False))
         assert len(found) == 1, (distance, len(found))
+
+
+def test_a_cloud_nearer_than_the_pass_reaches_is_not_split_into_pieces(monkeypatch) -> None:
+    """Where 2.5 sigmas of the depth noise stay within the search's threshold (nearer than 1.6 m at 1.5 mm and
+    1 cm) no piece's middle can lie beyond: the pass returns before labelling pieces (and importing SciPy's
+    graph module for them, 0.3 s on a process's first frame)."""
+    from objrec3d import cluster_fit
+
+    points, normals, _ = _view(_cylinder(0.045, 0.14), 1.2, 0)
+    monkeypatch.setattr(cluster_fit, "pieces", lambda *a: pytest.fail("pieces labelled"))
+    free = np.ones(points.shape[0], dtype=bool)
+    assert cluster_fit.cluster_fits(points, normals, free, _settings(), lambda fit, at: None) == []
