@@ -1,4 +1,5 @@
-"""Forward-difference Jacobians in one batched evaluation, for ``scipy.optimize.least_squares``.
+"""Forward-difference Jacobians in one batched evaluation, for the far-cylinder pass's least-squares fits
+(``robust_fit``).
 
 scipy's default Jacobian (``jac="2-point"``) calls the residual function once per parameter: seven calls for a
 capped cylinder, nine for a box. On the few hundred points of a far object each call is mostly NumPy's fixed
@@ -20,10 +21,10 @@ RELATIVE_STEP = float(np.finfo(np.float64).eps ** 0.5)
 
 
 class BatchedResiduals:
-    """``fun`` and ``jac`` for ``least_squares`` from ``batch``, a function of a (k, p) array of parameter
+    """``fun`` and ``jac`` for a least-squares solver from ``batch``, a function of a (k, p) array of parameter
     vectors that returns their (k, n) residuals. ``jac`` reuses the residuals of the last ``fun`` call when it
-    is asked at the same parameters (the trust-region solver always is). ``evaluations`` counts calls of
-    ``batch`` and ``vectors`` the parameter vectors they held."""
+    is asked at the same parameters (a solver's next Jacobian is at the point it just accepted).
+    ``evaluations`` counts calls of ``batch`` and ``vectors`` the parameter vectors they held."""
 
     def __init__(self, batch: Callable[[np.ndarray], np.ndarray]) -> None:
         self.batch = batch
