@@ -174,8 +174,14 @@ def _wave(bins: np.ndarray, departure: np.ndarray, mid_at: np.ndarray, starts: n
     the arc, the rounded edge's catch up), which no straight line takes out."""
     mid_departure = _bin_medians(bins, departure, starts, sizes)
     ordered = departure[np.lexsort((departure, bins))]
-    spread = np.array([1.4826 * float(np.median(np.abs(ordered[s:s + n] - m)))
-                       for s, n, m in zip(starts, sizes, mid_departure, strict=True)])
+    # Each bin's median absolute deviation from its median, all bins in one sort (np.median's value: the middle
+    # one, or the mean of the two middle ones).
+    member = np.repeat(np.arange(sizes.size), sizes)
+    within = np.arange(member.size) - np.repeat(np.cumsum(sizes) - sizes, sizes)
+    deviation = np.abs(ordered[np.repeat(starts, sizes) + within] - np.repeat(mid_departure, sizes))
+    deviation = deviation[np.lexsort((deviation, member))]
+    first = np.cumsum(sizes) - sizes
+    spread = 1.4826 * ((deviation[first + (sizes - 1) // 2] + deviation[first + sizes // 2]) / 2.0)
     inner = np.abs(mid_at) <= math.radians(WAVE_DEGREES)
     if inner.sum() < MIN_WAVE_BINS:
         return 0.0
