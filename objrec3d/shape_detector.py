@@ -40,11 +40,12 @@ log = logging.getLogger(__name__)
 
 @functools.cache
 def far_pass_available() -> bool:
-    """Whether SciPy, which the segment-then-fit pass fits with, is installed (the 3d extra). Organized clouds
-    need nothing else of SciPy, so without it the pass is left out, said once in the log, rather than the whole
-    detection refused: the detections are then those of ``segment_noise`` 0."""
+    """Whether SciPy, which the segment-then-fit pass splits the points into pieces with (``scipy.sparse``) and
+    finds a piece's outline with (``scipy.spatial``), is installed (the 3d extra). Organized clouds need nothing
+    else of SciPy, so without it the pass is left out, said once in the log, rather than the whole detection
+    refused: the detections are then those of ``segment_noise`` 0. (Only what the pass uses is imported: the
+    pass fits without ``scipy.optimize``, whose import alone cost the first frame 0.3 s.)"""
     try:
-        import scipy.optimize
         import scipy.sparse.csgraph
         import scipy.spatial  # noqa: F401
     except ImportError:
@@ -162,9 +163,9 @@ class ShapeDetector(CloudDetector):
                           "object took are split into connected pieces and each is fitted as a capped cylinder by "
                           "its point positions, errors along the rays in units of that noise, and kept only when "
                           "no sphere, box or other cylinder explains it as well and it does not lie on a found "
-                          "object's points. On the fresh table scenes 85 % (organized) and 89 % (unorganized) of "
-                          "objects with 300+ points, 76 %/79 % without, no false object; it costs about 1.7 s CPU "
-                          "per frame of a table 2-3 m away; 0: no such pass (the live rate of far scenes)",
+                          "object's points. On the fresh table scenes 86 % (organized) and 90 % (unorganized) of "
+                          "objects with 300+ points, 76 %/79 % without, no false object; it costs about 0.3 s CPU "
+                          "per frame of a table 2-3 m away (at most 0.6 s); 0: no such pass",
                           min=0.0, max=0.05, step=0.0001,
                           relevant=lambda v: "cylinder" in v["shape"])
     normal_neighbours = Int(30, "unorganized clouds: neighbours (cell means) per normal", min=3, max=200)
