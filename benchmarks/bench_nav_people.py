@@ -1,7 +1,7 @@
 """People in corridors: collisions per 20 goals and how every goal ended, over seeds.
 
     .venv/bin/python benchmarks/bench_nav_people.py [--seeds 0-9] [--goals 20] [--walkers 2]
-        [--avoid stop,sidestep] [--localization exact,amcl] [--recoveries default,patient] [--willow]
+        [--avoid stop,sidestep] [--localization exact,amcl] [--recoveries default,patient] [--trail-check] [--willow]
         [--shared-data DIR]
 
 Each run: a 12 m x 2 m corridor with a door recess every 2.5 m (or, with ``--willow``, a straight stretch of
@@ -12,6 +12,9 @@ from one end to the other ``--goals`` times (amcl with 5 % odometry noise). Targ
 ``--avoid none`` gives the scripted walkers of old, blind to the robot, for comparison. ``--recoveries``
 compares move_base's recovery orders: ``default`` (clear the costmap, rotate, back up) and ``patient`` (a
 wait of up to ``MoveBaseParams.patience`` seconds for what stands in the way to move, after clearing).
+``--trail-check`` also counts, per row, the recovery starts and wait seconds at which the robot had no plan round
+all the marks but would have had one round the marks on a walker's body alone: held up by trails, the marks of
+where a walker was (slower: two plans a second while waiting).
 Simulated time only; the CPU seconds are this process's.
 """
 
@@ -23,6 +26,7 @@ import itertools
 import math
 import os
 import time
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -33,6 +37,7 @@ from navigation.geometry import Pose2D
 from navigation.maps import OccupancyMap, load_map
 from navigation.move_base import PATIENT_RECOVERY_BEHAVIOURS, RECOVERY_BEHAVIOURS, GoalStatus, MoveBaseParams
 from navigation.people_scenarios import Corridor, corridor_map, drive_goals, find_corridor, walker
+from navigation.planner import Planner
 from navigation.simulation import SimConfig, Simulation
 from navigation.world import World
 
@@ -50,7 +55,7 @@ def seeds_of(text: str) -> list[int]:
 
 
 def run(occ_map: OccupancyMap, corridor: Corridor, seed: int, goals: int, walkers: int, avoid: str,
-        localization: str, recoveries: str = "default") -> dict:
+        localization: str, recoveries: str = "default", trail_check: bool = False) -> dict:
     """One seeded run: walkers placed along the corridor, the robot driven end to end ``goals`` times."""
     rng = np.random.default_rng(seed)
     half, side = corridor.half_length, max(0.0, corridor.half_width - 0.45)
@@ -63,9 +68,57 @@ def run(occ_map: OccupancyMap, corridor: Corridor, seed: int, goals: int, walker
     config = SimConfig(seed=seed, localization=localization, odom_linear_noise=noise, odom_angular_noise=noise,
                        move_base=MoveBaseParams(recovery_behaviours=RECOVERIES[recoveries]))
     sim = Simulation(occ_map, ends[1], config, world=World(obstacles=people))
+    trails = TrailCheck(sim) if trail_check else None
+    if trails is not None:
+        step = sim.step
+
+        def checked_step() -> None:
+            step()
+            trails()
+        sim.step = checked_step  # type: ignore[method-assign]
     results = drive_goals(sim, [ends[k % 2] for k in range(goals)])
     return {"collisions": sim.collisions, "results": results, "sim_time": sim.clock.now,
-            "by": collections.Counter(e["by"] for e in sim.events.of_type("collision"))}
+            "by": collections.Counter(e["by"] for e in sim.events.of_type("collision")),
+            "trails": trails.counts if trails is not None else collections.Counter()}
+
+
+class TrailCheck:
+    """At every recovery start and every simulated second of a wait, plan twice: round all the marks, and round
+    only those on a walker's body (within 0.15 m of where a walker really is). A plan round the second but not
+    the first means the robot is held up by trails alone: marks where a walker was, not where one is."""
+
+    def __init__(self, sim: Simulation) -> None:
+        self.sim = sim
+        self.counts: collections.Counter[str] = collections.Counter()
+        self._behaviour: str | None = None
+        self._next = 0.0
+
+    def __call__(self) -> None:
+        mb = self.sim.move_base
+        behaviour = mb.recovering if mb.active else None
+        started = behaviour is not None and behaviour != self._behaviour
+        self._behaviour = behaviour
+        if behaviour is None or mb.costmap.empty:
+            return
+        if started or (behaviour == "wait" and self.sim.clock.now >= self._next - 1e-9):
+            kind = "recovery starts" if started else "wait seconds"
+            self.counts[kind] += 1
+            self.counts[kind + " held by trails"] += int(self._held_by_trails())
+            self._next = self.sim.clock.now + 1.0
+
+    def _held_by_trails(self) -> bool:
+        sim, mb = self.sim, self.sim.move_base
+        assert mb.goal is not None and sim.world is not None
+        pts = mb.costmap.points()
+        on_body = np.zeros(len(pts), dtype=bool)
+        for o in sim.world.solids_at(sim.clock.now):
+            on_body |= np.hypot(pts[:, 0] - o.x, pts[:, 1] - o.y) - o.radius < 0.15
+        ok = []
+        for keep in (np.ones(len(pts), dtype=bool), on_body):
+            marks = mb.costmap.subset(keep)
+            planner = Planner(ObstacleField(marks.as_map()), replace(sim.planner.params, landmarks=0))
+            ok.append(planner.plan(sim.pose_estimate(), mb.goal.pose, mb.follower_params.xy_tolerance).ok)
+        return not ok[0] and ok[1]
 
 
 def main() -> None:
@@ -77,6 +130,8 @@ def main() -> None:
     parser.add_argument("--localization", default="exact,amcl", help="exact, amcl or both (default both)")
     parser.add_argument("--recoveries", default="default",
                         help=f"recovery orders to compare, of {', '.join(RECOVERIES)} (default: default)")
+    parser.add_argument("--trail-check", action="store_true",
+                        help="also count recovery starts and wait seconds held up by trails alone (slower)")
     parser.add_argument("--willow", action="store_true", help="a corridor of the Willow Garage map (shared data)")
     parser.add_argument("--shared-data", type=Path,
                         default=Path(os.environ.get("OBJREC_SHARED_DATA", ROOT.parent / "shared" / "data")))
@@ -105,8 +160,11 @@ def main() -> None:
         total, reached, aborted, collisions, sim_time = 0, 0, 0, 0, 0.0
         reasons: collections.Counter[str] = collections.Counter()
         unanswered = 0
+        trails: collections.Counter[str] = collections.Counter()
         for seed in seeds:
-            out = run(occ_map, corridor, seed, args.goals, args.walkers, avoid, localization, recoveries)
+            out = run(occ_map, corridor, seed, args.goals, args.walkers, avoid, localization, recoveries,
+                      args.trail_check)
+            trails.update(out["trails"])
             collisions += out["collisions"]
             sim_time += out["sim_time"]
             for status, text in out["results"]:
@@ -122,6 +180,10 @@ def main() -> None:
         print(f"{avoid:9} {localization:6} {recoveries:8} {total:6d} {reached:8d} {aborted:8d} {collisions:10d} "
               f"{per20:7.2f} {sim_time:7.0f} {time.process_time() - cpu:6.1f}  {dict(reasons) or '-'} [{verdict}]",
               flush=True)
+        if args.trail_check:
+            print(f"{'':25} held up by trails alone: {trails['recovery starts held by trails']} of "
+                  f"{trails['recovery starts']} recovery starts, {trails['wait seconds held by trails']} of "
+                  f"{trails['wait seconds']} wait seconds", flush=True)
 
 
 if __name__ == "__main__":

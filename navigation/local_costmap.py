@@ -36,6 +36,8 @@ class LocalCostmapParams:
     has gone (it moves), every one of these is divided by ``fast_rate``, to follow what moves closely.
     ``beams`` is how many beams to ask the laser for (at most): 160 over 58 degrees are 1.6 cm apart at
     the 2.5 m marking range, several to every 5 cm cell, for a quarter of the cost of the full 640.
+    ``keep_near``: while the robot waits (:meth:`LocalCostmap.refresh`), marks out of view are forgotten except
+    within this distance of it, where someone standing beside the robot would be.
     """
 
     window: float = 4.0
@@ -47,6 +49,7 @@ class LocalCostmapParams:
     update_period: float = 3.0
     fast_rate: float = 4.0
     beams: int = 160
+    keep_near: float = 1.0
 
 
 class LocalCostmap:
@@ -97,6 +100,14 @@ class LocalCostmap:
         """World (x, y) centres of the marked cells, shape (N, 2)."""
         return self._arrays()[1]
 
+    def subset(self, keep: np.ndarray) -> LocalCostmap:
+        """A new layer with only the marks where ``keep`` (in the order of :meth:`points`) is true: to ask what a
+        plan round some of the marks would be, leaving this layer alone."""
+        flat, _ = self._arrays()
+        other = LocalCostmap(self.field, self.params)
+        other._cells = set(flat[np.asarray(keep, dtype=bool)].tolist())
+        return other
+
     def _changed(self) -> None:
         self._flat = self._points = None
         self.version += 1
@@ -117,30 +128,66 @@ class LocalCostmap:
         so the marks land where the planner will look for them. ``monitor``: a scan the collision guard read
         (counted in ``monitor_scans``, not ``scans``).
         """
-        p = self.params
         if monitor:
             self.monitor_scans += 1
         else:
             self.scans += 1
         ranges = np.asarray(scan.ranges, dtype=np.float64)
         gone: set[int] = self._clear_seen(pose, scan, ranges) if self._cells else set()
-        new: set[int] = set()
-        hit = np.isfinite(ranges) & (ranges <= p.obstacle_range)
-        if hit.any():
-            angles = pose.yaw + scan.angle_min + scan.angle_increment * np.flatnonzero(hit)
-            r = ranges[hit]
-            cells = self._cells_of(pose.x + r * np.cos(angles), pose.y + r * np.sin(angles))
-            cells = cells[cells >= 0]
-            # A return on or next to one of the map's obstacles is the map's own (allowing for the pose error).
-            unmapped = self.field.dist.ravel()[cells] > p.mapped_tolerance
-            new = set(cells[unmapped].tolist()) - self._cells
-            self._cells |= new
+        new = self._marked_by(pose, scan, ranges) - self._cells
+        self._cells |= new
         # A cell cleared and marked again by the same scan (an edge seen from a new angle) has not changed.
         self.last_marked, self.last_cleared = len(new - gone), len(gone - new)
         changed = bool(self.last_marked or self.last_cleared)
         if changed:
             self._changed()
         return changed
+
+    def refresh(self, pose: Pose2D, scan: LaserScan) -> bool:
+        """Keep only what ``scan`` (taken at ``pose``) marks, and the marks within ``keep_near`` of the robot that
+        no beam passed through; True when the layer changed.
+
+        For a robot standing still to watch a blocked way. A mark farther out of the laser's view, or hidden
+        behind what it sees now, is where a person was, not where one is known to be: a walker that went past
+        the robot, out of its 58 degree view, or walked on behind another, leaves its trail there, and no beam
+        will ever pass through it while the robot stands. A wait for a way round such marks waits for nobody.
+        A person right beside the robot is out of its view too, and is no trail: those marks stay.
+        Unlike :meth:`clear`, the layer (and its ``version``) changes only when a mark comes or goes.
+        """
+        self.scans += 1
+        ranges = np.asarray(scan.ranges, dtype=np.float64)
+        old = set(self._cells)
+        cells = self._marked_by(pose, scan, ranges) | self._unseen_near(pose, scan, ranges)
+        new, gone = cells - old, old - cells
+        self.last_marked, self.last_cleared = len(new), len(gone)
+        self._cells = cells
+        if not (new or gone):
+            return False
+        self._changed()
+        return True
+
+    def _unseen_near(self, pose: Pose2D, scan: LaserScan, ranges: np.ndarray) -> set[int]:
+        """The marks within ``keep_near`` of ``pose`` that no beam of ``scan`` passed through (leaves the layer
+        without the ones it did: the caller sets the layer anew)."""
+        if not self._cells:
+            return set()
+        flat, pts = self._arrays()
+        near = set(flat[np.hypot(pts[:, 0] - pose.x, pts[:, 1] - pose.y) <= self.params.keep_near].tolist())
+        return near - self._clear_seen(pose, scan, ranges)
+
+    def _marked_by(self, pose: Pose2D, scan: LaserScan, ranges: np.ndarray) -> set[int]:
+        """The cells where the scan's returns within ``obstacle_range`` end, except those on the map's obstacles."""
+        p = self.params
+        hit = np.isfinite(ranges) & (ranges <= p.obstacle_range)
+        if not hit.any():
+            return set()
+        angles = pose.yaw + scan.angle_min + scan.angle_increment * np.flatnonzero(hit)
+        r = ranges[hit]
+        cells = self._cells_of(pose.x + r * np.cos(angles), pose.y + r * np.sin(angles))
+        cells = cells[cells >= 0]
+        # A return on or next to one of the map's obstacles is the map's own (allowing for the pose error).
+        unmapped = self.field.dist.ravel()[cells] > p.mapped_tolerance
+        return set(cells[unmapped].tolist())
 
     def _clear_seen(self, pose: Pose2D, scan: LaserScan, ranges: np.ndarray) -> set[int]:
         """Drop marked cells whose centre a beam reached and passed (by at least one cell); returns them."""

@@ -13,7 +13,10 @@ what it is pressed against); each runs at most once per goal, in that order, and
 change nothing (clearing an empty costmap, backing into an obstacle) is skipped. A fourth, ``wait`` (Nav2's
 Wait behaviour), runs where ``recovery_behaviours`` lists it (:data:`PATIENT_RECOVERY_BEHAVIOURS`): it stands
 still up to ``patience`` seconds, scanning, and drives on as soon as a plan round what the laser marked
-exists again (a person who stopped in the way moves on).
+exists again (a person who stopped in the way moves on). Once it faces the way, each of its scans keeps only
+what the laser sees and what lies within ``keep_near`` of the robot (``LocalCostmap.refresh``): a mark farther out
+of view is a walker's trail, which no beam clears while the robot stands, and a wait for a way round it waits for
+nobody; one beside the robot may be a person standing there.
 After the last behaviour it gives up with ABORTED, so a goal that makes no progress ends after a bounded
 simulated time whatever the time step. Progress means the path still to drive getting shorter: a robot
 circling its goal moves but makes none. A goal inside an obstacle or off the map is aborted at once: no
@@ -75,7 +78,8 @@ class MoveBaseParams:
     ``stuck_timeout`` seconds in which the path still to drive does not shrink by ``progress_distance``
     count as no progress. ``recovery_behaviours`` run in order, each at most once per goal (names from
     :data:`KNOWN_RECOVERY_BEHAVIOURS`); ``wait`` stands still for at most ``patience`` seconds, scanning as
-    often as when it watches a blocked way, and ends as soon as a plan exists; the rotation turns
+    often as when it watches a blocked way (keeping, once it faces the way, only the marks in view or close by),
+    and ends as soon as a plan exists; the rotation turns
     ``recovery_turn`` radians at ``recovery_speed``; the
     back-up drives ``backup_distance`` metres backwards at ``backup_speed``, for at most
     ``backup_distance / backup_speed + backup_slack`` seconds. The way counts as blocked where the path
@@ -440,7 +444,12 @@ class MoveBase:
                 return False
         assert self.scan_source is not None
         self._scan_pose, self._scan_time = pose, self.clock.now
-        self.costmap.update(pose, self.scan_source())
+        b = self._behaviour
+        if b is not None and b.name == "wait" and b.heading is None:
+            # Standing and facing the way: what is out of view and not close by is a trail (see refresh).
+            self.costmap.refresh(pose, self.scan_source())
+        else:
+            self.costmap.update(pose, self.scan_source())
         if self.costmap.last_cleared:
             self._fast_until = self.clock.now + p.update_period  # something moved: keep an eye on it
         return True
