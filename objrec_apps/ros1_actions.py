@@ -5,7 +5,9 @@ and ``NS/cancel`` (``actionlib_msgs/GoalID``) and reports on ``NS/status`` (``ac
 every goal it tracks, a few times a second) and ``NS/result`` (``<Action>ActionResult``, once per goal). Goals
 carry ids unique to this client (``CALLER-N-SECONDS``, actionlib's form). A goal's end is taken from its result,
 or from a terminal status in a status array when the result was lost (the transport keeps only the newest
-message of a topic). actionlib's ten statuses map onto the patrol's three outcomes in :data:`TERMINAL`.
+message of a topic): a terminal status ends a goal only after ``RESULT_GRACE_SECONDS`` without its result, since
+the result, sent at the same moment, may arrive after the next status array and it alone carries the server's
+text. actionlib's ten statuses map onto the patrol's three outcomes in :data:`TERMINAL`.
 
 Every wait has a deadline. A goal that no status and no result names within ``ack_seconds`` of being sent was
 never acknowledged (a hung or restarting server that still holds the topics): it ends ABORTED with that reason,
@@ -52,6 +54,10 @@ DEFAULT_ACK_SECONDS = 5.0
 DEFAULT_SILENCE_SECONDS = 10.0
 #: How often the status silence of a running goal is checked (seconds).
 SILENCE_CHECK_PERIOD = 0.25
+#: Seconds a goal whose status is terminal waits for its result before it ends on the status alone: a server
+#: publishes both at once, but the status array (10 Hz) may overtake the result, and a goal ended on the status
+#: lost the server's text ("goal reached" became "succeeded (/move_base)").
+RESULT_GRACE_SECONDS = 0.5
 
 
 @dataclass
@@ -62,6 +68,7 @@ class _PendingGoal:
     label: str
     acknowledged: bool = False
     ack_timer: Timer | None = None
+    result_timer: Timer | None = None  # a terminal status came: the goal ends on it unless the result follows
 
 
 class ActionClient:
@@ -131,6 +138,8 @@ class ActionClient:
         pending = self._pending.pop(goal_id, None)
         if pending is not None and pending.ack_timer is not None:
             pending.ack_timer.cancel()
+        if pending is not None and pending.result_timer is not None:
+            pending.result_timer.cancel()
         if not self._pending and self._silence_watch is not None:
             self._silence_watch.cancel()
             self._silence_watch = None
@@ -178,10 +187,13 @@ class ActionClient:
         self.statuses += 1
         self._status_at = self._clock.now
         for status in message.status_list:
-            if status.goal_id.id in self._pending:
+            pending = self._pending.get(status.goal_id.id)
+            if pending is not None:
                 self._acknowledged(status.goal_id.id)
-                if status.status in TERMINAL:
-                    self._done(status.goal_id.id, status.status, status.text)
+                if status.status in TERMINAL and pending.result_timer is None:
+                    pending.result_timer = self._clock.call_later(
+                        RESULT_GRACE_SECONDS,
+                        lambda gid=status.goal_id.id, code=status.status, text=status.text: self._done(gid, code, text))
 
     def _on_result(self, message: Any) -> None:
         status = message.status

@@ -27,10 +27,17 @@ from navigation.poses import load_poses
 from navigation.robot_interface import PatrolClock, PatrolRobot, machine_trace
 from navigation.robots import ROBOTS
 from objrec_apps import ros1_robot
-from objrec_apps.ros1_actions import ActionClient
+from objrec_apps.ros1_actions import RESULT_GRACE_SECONDS, ActionClient
 from objrec_apps.ros1_batteries import HostBattery, TopicBattery
 from objrec_apps.ros1_clock import WallClock
-from objrec_apps.ros1_messages import GOAL_ID, GOAL_STATUS_ARRAY, MOVE_BASE_ACTION, SENSOR_STATE, patrol_typestore
+from objrec_apps.ros1_messages import (
+    GOAL_ID,
+    GOAL_STATUS_ARRAY,
+    MOVE_BASE_ACTION,
+    SENSOR_STATE,
+    action_types,
+    patrol_typestore,
+)
 from objrec_apps.ros1_robot import Ros1Robot
 from objrec_ros.msgdefs import message_from_dict
 from tests.ros.live import ros1_env
@@ -634,6 +641,60 @@ def test_the_action_clients_deadlines_on_a_clock_that_is_told_the_time():
                                                                  "/move_base/status for 10 s while goal 2 (POSE_1) "
                                                                  "ran: is move_base still running?")]
         assert clock.next_due() is None  # no goal left: no timer left
+    finally:
+        action.close()
+        transport.close()
+
+
+def test_a_terminal_status_waits_for_its_result_which_carries_the_servers_text():
+    """No ROS: the status array (10 Hz) may overtake a goal's result, and only the result carries the server's
+    text. A goal whose status turns SUCCEEDED ends on its result when that follows within
+    ``RESULT_GRACE_SECONDS``; a goal whose result never comes ends on the status alone after that grace."""
+    bus = MemoryBus()
+    MemoryTransport.bus = bus
+    transport = MemoryTransport({}, "grace")
+    store = patrol_typestore()
+    now = [0.0]
+    clock = WallClock(monotonic=lambda: now[0])
+    action = ActionClient(transport, "/move_base", MOVE_BASE_ACTION, store, clock, "/t", "move_base")
+    status_out = transport.advertise("/move_base/status", GOAL_STATUS_ARRAY, store)
+    result_type = action_types(MOVE_BASE_ACTION)[1]
+    result_out = transport.advertise("/move_base/result", result_type, store)
+    ended: list[tuple[str, GoalStatus, str]] = []
+
+    def send(label: str) -> str:
+        return action.send({"target_pose": {"header": {"frame_id": "map"}}},
+                           lambda s, t: ended.append((label, s, t)), label)
+
+    def publish(out, msgtype: str, data: dict, counter) -> None:  # type: ignore[no-untyped-def]
+        """Publish ``data`` and run the clock (a hang guard) until ``counter()`` says the client handled it."""
+        before = counter()
+        out.publish(bytes(store.serialize_ros1(message_from_dict(store, msgtype, data), msgtype)))
+        for _ in range(2000):
+            clock.run_pending(0.01)
+            if counter() > before:
+                return
+        pytest.fail(f"the {msgtype} never reached the client")
+
+    try:
+        first = send("goal 1 (POSE_0)")
+        publish(status_out, GOAL_STATUS_ARRAY, {"status_list": [{"goal_id": {"id": first}, "status": 3}]},
+                lambda: action.statuses)
+        assert ended == []  # a terminal status alone: the result may follow
+        now[0] = 0.3
+        publish(result_out, result_type, {"status": {"goal_id": {"id": first}, "status": 3, "text": "goal reached"}},
+                lambda: len(ended))  # the result ends the goal
+        assert ended == [("goal 1 (POSE_0)", GoalStatus.SUCCEEDED, "goal reached")]
+        ended.clear()
+        second = send("goal 2 (POSE_1)")
+        publish(status_out, GOAL_STATUS_ARRAY, {"status_list": [{"goal_id": {"id": second}, "status": 3}]},
+                lambda: action.statuses)
+        now[0] = 0.3 + RESULT_GRACE_SECONDS - 0.01
+        clock.run_pending(0.0)
+        assert ended == []
+        now[0] = 0.3 + RESULT_GRACE_SECONDS + 0.01
+        clock.run_pending(0.0)
+        assert ended == [("goal 2 (POSE_1)", GoalStatus.SUCCEEDED, "succeeded (/move_base)")]  # the result was lost
     finally:
         action.close()
         transport.close()
