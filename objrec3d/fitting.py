@@ -27,6 +27,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .ray_residuals import SIDEWAYS_WEIGHT
 from .vec import cross3, dot3, norms, pair_dots, row_dots, squared_norms
 
 log = logging.getLogger(__name__)
@@ -761,9 +762,6 @@ def _unit_rays(pts: np.ndarray, origin: np.ndarray) -> np.ndarray | None:
     return rays / lengths[:, None]
 
 
-#: A ray that misses the model errs sideways, where a depth camera is precise: such an error weighs this much
-#: more than the same error along the ray.
-_SIDEWAYS_WEIGHT = 4.0
 
 
 def _ray_residuals(pts: np.ndarray, rays: np.ndarray, center: np.ndarray, radius: float) -> np.ndarray:
@@ -779,7 +777,7 @@ def _ray_residuals(pts: np.ndarray, rays: np.ndarray, center: np.ndarray, radius
     near, far = (-b - root) / a, (-b + root) / a
     along = np.where(np.abs(near) <= np.abs(far), near, far)
     miss = np.sqrt(np.maximum(q - b * b / a, 0.0)) - radius
-    return np.where(disc >= 0.0, along, _SIDEWAYS_WEIGHT * miss)
+    return np.where(disc >= 0.0, along, SIDEWAYS_WEIGHT * miss)
 
 
 def _ray_residuals_jacobian(pts: np.ndarray, rays: np.ndarray, center: np.ndarray, radius: float
@@ -801,7 +799,7 @@ def _ray_residuals_jacobian(pts: np.ndarray, rays: np.ndarray, center: np.ndarra
     hit = disc >= 0.0
     side = rel - (b / a)[:, None] * rays
     side_length = np.maximum(np.sqrt(np.einsum("ij,ij->i", side, side)), 1e-12)
-    residual = np.where(hit, along, _SIDEWAYS_WEIGHT * (side_length - radius))
+    residual = np.where(hit, along, SIDEWAYS_WEIGHT * (side_length - radius))
     # g . ray = a t + b = -root (near crossing) or +root (far): floored so that a grazing ray (a tangent, where
     # the derivative is unbounded) stays a steep but finite row, as a finite difference would make it.
     floor = 1e-3 * max(radius, 1e-9) * np.sqrt(a)
@@ -809,8 +807,8 @@ def _ray_residuals_jacobian(pts: np.ndarray, rays: np.ndarray, center: np.ndarra
     g = rel + along[:, None] * rays
     k = pts.shape[1]
     jac = np.empty((pts.shape[0], k + 1))
-    jac[:, :k] = np.where(hit[:, None], g / grazing[:, None], -_SIDEWAYS_WEIGHT * side / side_length[:, None])
-    jac[:, k] = np.where(hit, radius / grazing, -_SIDEWAYS_WEIGHT)
+    jac[:, :k] = np.where(hit[:, None], g / grazing[:, None], -SIDEWAYS_WEIGHT * side / side_length[:, None])
+    jac[:, k] = np.where(hit, radius / grazing, -SIDEWAYS_WEIGHT)
     return residual, jac
 
 

@@ -583,25 +583,34 @@ def test_a_move_base_that_falls_silent_mid_goal_aborts_it(ros1_master, ros1_robo
     assert summary_fields(out)["goals"] == "0 reached, 3 aborted, 0 preempted"
 
 
-def test_the_action_clients_deadlines_on_a_clock_that_is_told_the_time():
-    """No ROS: the action client on the in-process bus, its clock's time set by the test. A goal no status names
-    is given up after ack seconds (ABORTED with the reason, a cancel published); a goal a status names is not,
-    and is given up only when the status then stays quiet for silence seconds; a status that keeps coming keeps
-    it running."""
+def in_process_move_base(name: str, **deadlines: float):  # type: ignore[no-untyped-def]
+    """No ROS: an action client for /move_base on the in-process bus, on a clock whose time the test sets
+    (``now[0]``); ``send(label)`` sends a goal whose end is appended to ``ended`` as (label, status, text).
+    Returns (bus, transport, store, now, clock, action, ended, send)."""
     bus = MemoryBus()
     MemoryTransport.bus = bus
-    transport = MemoryTransport({}, "deadlines")
+    transport = MemoryTransport({}, name)
     store = patrol_typestore()
     now = [0.0]
     clock = WallClock(monotonic=lambda: now[0])
-    action = ActionClient(transport, "/move_base", MOVE_BASE_ACTION, store, clock, "/t", "move_base",
-                          ack_seconds=5.0, silence_seconds=10.0)
-    status_out = transport.advertise("/move_base/status", GOAL_STATUS_ARRAY, store)
+    action = ActionClient(transport, "/move_base", MOVE_BASE_ACTION, store, clock, "/t", "move_base", **deadlines)
     ended: list[tuple[str, GoalStatus, str]] = []
 
     def send(label: str) -> str:
         return action.send({"target_pose": {"header": {"frame_id": "map"}}},
                            lambda s, t: ended.append((label, s, t)), label)
+
+    return bus, transport, store, now, clock, action, ended, send
+
+
+def test_the_action_clients_deadlines_on_a_clock_that_is_told_the_time():
+    """No ROS: the action client on the in-process bus, its clock's time set by the test. A goal no status names
+    is given up after ack seconds (ABORTED with the reason, a cancel published); a goal a status names is not,
+    and is given up only when the status then stays quiet for silence seconds; a status that keeps coming keeps
+    it running."""
+    bus, transport, store, now, clock, action, ended, send = in_process_move_base(
+        "deadlines", ack_seconds=5.0, silence_seconds=10.0)
+    status_out = transport.advertise("/move_base/status", GOAL_STATUS_ARRAY, store)
 
     def status(*goal_ids: str) -> None:
         """Publish a status naming ``goal_ids`` as ACTIVE and wait (a hang guard) until the client has it."""
@@ -650,21 +659,10 @@ def test_a_terminal_status_waits_for_its_result_which_carries_the_servers_text()
     """No ROS: the status array (10 Hz) may overtake a goal's result, and only the result carries the server's
     text. A goal whose status turns SUCCEEDED ends on its result when that follows within
     ``RESULT_GRACE_SECONDS``; a goal whose result never comes ends on the status alone after that grace."""
-    bus = MemoryBus()
-    MemoryTransport.bus = bus
-    transport = MemoryTransport({}, "grace")
-    store = patrol_typestore()
-    now = [0.0]
-    clock = WallClock(monotonic=lambda: now[0])
-    action = ActionClient(transport, "/move_base", MOVE_BASE_ACTION, store, clock, "/t", "move_base")
+    _bus, transport, store, now, clock, action, ended, send = in_process_move_base("grace")
     status_out = transport.advertise("/move_base/status", GOAL_STATUS_ARRAY, store)
     result_type = action_types(MOVE_BASE_ACTION)[1]
     result_out = transport.advertise("/move_base/result", result_type, store)
-    ended: list[tuple[str, GoalStatus, str]] = []
-
-    def send(label: str) -> str:
-        return action.send({"target_pose": {"header": {"frame_id": "map"}}},
-                           lambda s, t: ended.append((label, s, t)), label)
 
     def publish(out, msgtype: str, data: dict, counter) -> None:  # type: ignore[no-untyped-def]
         """Publish ``data`` and run the clock (a hang guard) until ``counter()`` says the client handled it."""
