@@ -52,6 +52,7 @@ from .cli import (
 )
 from .detection_outputs import OUTPUT_OPTION, DetectionLines, TypedDetections
 from .foxglove_view import FoxgloveView, add_foxglove_argument
+from .launch import ending_at_once
 from .output_contract import Ending, Output, RunEnd, close_outputs
 from .run_files import detection_inputs, source_outputs
 from .side_outputs import Pictures, Reasons, RerunRecording
@@ -288,13 +289,18 @@ OUTPUTS: dict[str, Callable[[RunInputs], Output | Iterable[Output] | None]] = {
 _RUN_FAILURES = (SourceError, InputError, OutputError, AnnotationError, explain.ExplainWriteError, OSError)
 
 
-def run(args: argparse.Namespace, stdout: IO[str]) -> int:
-    if args.list_topics:
-        return _list_topics(args, stdout)
+def start(args: argparse.Namespace) -> tuple[DetectionDirector, FrameSource, Kind]:
+    """Everything a run needs before its first frame, judged before anything is written: the options, the
+    output paths, the system (a detector that can detect) and the source, open."""
     _check_output_options(args)
     _check_explain(args)
     _check_output_paths(args)
-    director, source, kind = _open(args)
+    return _open(args)
+
+
+def run(args: argparse.Namespace, started: tuple[DetectionDirector, FrameSource, Kind], stdout: IO[str]) -> int:
+    """The run loop over a started source, every output opened, flushed and summed up."""
+    director, source, kind = started
     inputs = RunInputs(args, director, source, kind, stdout)
     opened: list[Output] = []
     end = RunEnd(Ending.FAILED, keep_partial=False)  # until the run says otherwise: a late mistake or a bug
@@ -356,21 +362,32 @@ def _failed(exc: Exception, frames: int, opened: Sequence[Output], args: argpars
 
 
 def main(argv: list[str] | None = None) -> int:
-    # Ctrl-C here is before the run loop took it over (building the system, opening the source); a broken pipe
-    # (`| head`) is not an error.
+    # Ctrl-C as KeyboardInterrupt is left only between the launcher's start-up handling and this command's
+    # (``_main``): before the run loop took it over; a broken pipe (`| head`) is not an error.
     return run_command(PROG, lambda: _main(argv), mistakes=(UserError, InputError, OutputError),
                        interrupted="interrupted while starting")
 
 
 def _main(argv: list[str] | None) -> int:
-    parser = build_parser()
-    args = parser.parse_args(explain.bare_option_to_stderr(sys.argv[1:] if argv is None else argv))
-    if not args.list_topics and (args.params is None or args.source is None):
-        parser.error("PARAMS_FILE and --source are required (except with --list-topics)")
-    configure_logging(PROG, args.verbose)
-    try:
+    # Until the run loop takes the signals over nothing is written, so a signal ends the command at once, one
+    # line, 130. An interrupt raised as an exception could land anywhere in the start-up (in a plug-in's class
+    # creation, which Python 3.11 wraps into a RuntimeError; in a generator being closed, where it is only
+    # printed and then lost) and is not used here.
+    with ending_at_once(PROG):
+        parser = build_parser()
+        args = parser.parse_args(explain.bare_option_to_stderr(sys.argv[1:] if argv is None else argv))
+        if not args.list_topics and (args.params is None or args.source is None):
+            parser.error("PARAMS_FILE and --source are required (except with --list-topics)")
+        configure_logging(PROG, args.verbose)
         check_limit_settings()
-        return run(args, sys.stdout)
+        if args.list_topics:
+            return _list_topics(args, sys.stdout)
+        try:
+            started = start(args)
+        except PipelineError as exc:
+            raise UserError(f"{args.params}: {exc}") from None
+    try:
+        return run(args, started, sys.stdout)
     except PipelineError as exc:
         raise UserError(f"{args.params}: {exc}") from None
 

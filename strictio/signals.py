@@ -28,10 +28,17 @@ Handler = Callable[[int, FrameType | None], Any] | int | signal.Handlers
 def handling(handler: Handler, signals: tuple[int, ...] = STOP_SIGNALS) -> Iterator[None]:
     """Within: ``handler`` (a function, or ``signal.SIG_IGN``) receives ``signals``; afterwards the previous
     handling is back, also when the block raised. Outside the main thread, where Python allows no handler, it
-    changes nothing."""
+    changes nothing.
+
+    A signal ignored when the block begins stays ignored: a shell starts a background job (``cmd &`` in a
+    script) with Ctrl-C ignored, so that Ctrl-C at the terminal is not for it, and ``nohup``-style wrappers do
+    the same; taking the signal over for part of the run only would make a Ctrl-C count in some phases and
+    vanish in others. SIGTERM, which nobody ignores by convention, still stops such a run."""
     previous: dict[int, Any] = {}
     if threading.current_thread() is threading.main_thread():
         for sig in signals:
+            if signal.getsignal(sig) is signal.SIG_IGN:
+                continue
             previous[sig] = signal.signal(sig, handler)
     try:
         yield

@@ -1,13 +1,21 @@
-"""Shared fixtures: where the real data lives, and the Qt platform for headless runs."""
+"""Shared fixtures: where the real data lives, the Qt platform for headless runs, and Ctrl-C as a terminal
+sends it."""
 
 from __future__ import annotations
 
 import os
+import signal
 from pathlib import Path
 
 import pytest
 
 os.environ.setdefault("QT_QPA_PLATFORM", "offscreen")
+
+# The tests press Ctrl-C as a person at a terminal does. A suite started in the background of a script
+# (`bash run &`) inherits Ctrl-C ignored, which the commands rightly keep ignoring (strictio.signals), so
+# every command the tests start would too: take Python's own handling back, which the children then get.
+if signal.getsignal(signal.SIGINT) is signal.SIG_IGN:
+    signal.signal(signal.SIGINT, signal.default_int_handler)
 
 PROJECT_ROOT = Path(__file__).resolve().parents[1]
 SHARED_DATA = Path(os.environ.get("OBJREC_SHARED_DATA", PROJECT_ROOT.parent / "shared" / "data"))

@@ -12,11 +12,11 @@ from strictio.output_paths import RunFiles, is_open_descriptor
 
 
 @pytest.fixture
-def run_files(tmp_path: Path) -> RunFiles:
+def run_files(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> RunFiles:
     (tmp_path / "params.yaml").write_text("a: 1\n", encoding="utf-8")
     (tmp_path / "frames").mkdir()
     (tmp_path / "frames" / "frame_000000.png").write_bytes(b"png")
-    os.chdir(tmp_path)
+    monkeypatch.chdir(tmp_path)  # given back afterwards: later tests name files relative to the project
     return RunFiles().reads("params.yaml", "the parameter file").reads("frames", "the source")
 
 

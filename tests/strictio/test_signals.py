@@ -67,3 +67,21 @@ def test_only_the_named_signals_give_up_on_a_second_arrival():
         assert (stop.count, stop.reason) == (2, "SIGTERM")
         with pytest.raises(KeyboardInterrupt):
             os.kill(os.getpid(), signal.SIGINT)
+
+
+def test_a_signal_ignored_when_the_block_begins_stays_ignored():
+    """A background job's Ctrl-C (ignored by the shell that started it) is not taken over; SIGTERM still is."""
+    seen: list[int] = []
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        with handling(lambda signum, _frame: seen.append(signum)):
+            assert signal.getsignal(signal.SIGINT) is signal.SIG_IGN
+            os.kill(os.getpid(), signal.SIGINT)
+            os.kill(os.getpid(), signal.SIGTERM)
+        assert seen == [signal.SIGTERM]
+        assert signal.getsignal(signal.SIGINT) is signal.SIG_IGN
+        with StopSignals() as stop:
+            os.kill(os.getpid(), signal.SIGINT)
+            assert (stop.count, stop.event.is_set()) == (0, False)
+    finally:
+        signal.signal(signal.SIGINT, previous)

@@ -1,0 +1,51 @@
+"""Run objrec-detect and send it SIGINT at the Nth Python function call of its start-up: from the moment the
+launcher's handler is in place until the run loop takes the signals over. With N = -1 nothing is sent and the
+number of calls in that stretch is written to stderr (``CALLS n``), so that a test can spread N over all of it.
+
+Usage: python interrupt_at_call.py N objrec-detect-arguments...
+
+A signal sent from inside a profile hook is handled at the next call, so every part of the start-up (imports,
+a plug-in's class creation, entry-point scanning, opening the source) is hit, not just where a timer lands.
+"""
+
+from __future__ import annotations
+
+import os
+import signal
+import sys
+from types import FrameType
+from typing import Any
+
+TARGET = int(sys.argv.pop(1))
+_install = signal.signal
+_state = {"calls": 0, "counting": False, "sent": False}
+
+
+def _profile(_frame: FrameType, event: str, _arg: Any) -> None:
+    if event != "call" or not _state["counting"]:
+        return
+    _state["calls"] += 1
+    if _state["calls"] == TARGET and not _state["sent"]:
+        _state["sent"] = True
+        os.kill(os.getpid(), signal.SIGINT)
+
+
+def _watching(sig: int, handler: Any) -> Any:
+    """signal.signal, noting where the stretch begins (the launcher's handler) and ends (the run loop's)."""
+    previous = _install(sig, handler)
+    if sig == signal.SIGINT:
+        if getattr(handler, "__name__", "") == "_handle":  # StopSignals: the run loop has the signals now
+            if _state["counting"] and TARGET < 0:
+                sys.stderr.write(f"CALLS {_state['calls']}\n")
+            _state["counting"] = False
+        elif not _state["sent"] and _state["calls"] == 0 and callable(handler):
+            _state["counting"] = True
+    return previous
+
+
+signal.signal = _watching
+sys.setprofile(_profile)
+
+from objrec_apps.launch import detect  # noqa: E402 - the launcher's handler must be watched from its start
+
+sys.exit(detect())
