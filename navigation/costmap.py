@@ -9,9 +9,9 @@ from __future__ import annotations
 
 import math
 
-import cv2
 import numpy as np
 
+from .grid_distance import distance_to_zero
 from .maps import OccupancyMap
 
 
@@ -47,7 +47,7 @@ class ObstacleField:
         padded[1:-1, 1:-1] = obstacle
         self.obstacle = padded
         free = (~padded).astype(np.uint8)
-        self.dist = cv2.distanceTransform(free, cv2.DIST_L2, cv2.DIST_MASK_PRECISE).astype(np.float64)
+        self.dist = distance_to_zero(free)
         self.dist *= self.resolution
         self.height, self.width = padded.shape
         self._dist_list = shared_list(self.dist)

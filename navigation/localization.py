@@ -27,12 +27,12 @@ from collections.abc import Callable
 from dataclasses import dataclass, replace
 from typing import Any
 
-import cv2
 import numpy as np
 
 from .costmap import ObstacleField
 from .events import Event, EventLog
 from .geometry import Pose2D, wrap_angle
+from .grid_distance import distance_to_zero
 from .laser import LaserParams, LaserScan, cast_scan
 
 log = logging.getLogger(__name__)
@@ -222,8 +222,8 @@ class ParticleFilter:
         # distance-to-obstacle table is zero all through a solid block (or the unknown space behind a
         # wall, which counts as obstacle), so a pose whose beams end deep inside one would score as well
         # as the true pose, and the cloud slides through walls.
-        inner = cv2.distanceTransform(field.obstacle.astype(np.uint8), cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
-        d = np.where(field.obstacle, inner.astype(np.float64) * self._res, field.dist) - 0.5 * self._res
+        inner = distance_to_zero(field.obstacle.astype(np.uint8))
+        d = np.where(field.obstacle, inner * self._res, field.dist) - 0.5 * self._res
         d = np.clip(d, 0.0, p.likelihood_max_dist)
         # Probability of a beam end point at each cell: a hit blurred by sigma_hit; the random returns'
         # share z_rand / range_max depends on the scan's range_max and is added in _log_table().

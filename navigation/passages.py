@@ -15,6 +15,8 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
+from .grid_distance import distance_to_zero
+
 
 @dataclass(frozen=True)
 class Passage:
@@ -61,7 +63,7 @@ def narrowest_passage(clear: np.ndarray, start: int, goal: int) -> Passage | Non
     _, split = _connected(clear >= levels[hi], start, goal)
     side_a = split == split.ravel()[start]
     side_b = split == split.ravel()[goal]
-    to_a = cv2.distanceTransform((~side_a).astype(np.uint8), cv2.DIST_L2, cv2.DIST_MASK_PRECISE).ravel()
-    to_b = cv2.distanceTransform((~side_b).astype(np.uint8), cv2.DIST_L2, cv2.DIST_MASK_PRECISE).ravel()
+    to_a = distance_to_zero((~side_a).astype(np.uint8)).ravel()
+    to_b = distance_to_zero((~side_b).astype(np.uint8)).ravel()
     best = candidates[np.argmin(to_a[candidates] + to_b[candidates])]
     return Passage(int(best), level)

@@ -23,6 +23,7 @@ import numpy as np
 
 from .costmap import ObstacleField, shared_list
 from .geometry import Pose2D
+from .grid_distance import distance_to_zero
 from .passages import narrowest_passage
 
 log = logging.getLogger(__name__)
@@ -95,7 +96,7 @@ class Planner:
         dist = field.dist
         if self.keepout is not None:  # keepout cells count as obstacles for the plan (and only for the plan)
             free = (~(field.obstacle | self.keepout)).astype(np.uint8)
-            dist = cv2.distanceTransform(free, cv2.DIST_L2, cv2.DIST_MASK_PRECISE).astype(np.float64)
+            dist = distance_to_zero(free)
             dist *= field.resolution
         # Clearance of a cell = distance to the nearest obstacle surface (centre distance - half a cell).
         self.clear = dist - 0.5 * field.resolution

@@ -223,7 +223,8 @@ def start(name: str, *args: str, cwd: Path, env: dict[str, str] | None = None) -
 
 @pytest.mark.parametrize("delay", [0.1, 0.2, 0.4])
 def test_ctrl_c_while_starting_prints_no_traceback(project_root, delay):
-    process = start("detect", PARAMS, "-s", "demo", "-n", "300", cwd=project_root)
+    # No frame limit: the run ends only by the signal, however late a loaded machine lets it come.
+    process = start("detect", PARAMS, "-s", "demo", cwd=project_root)
     try:
         time.sleep(delay)
         process.send_signal(signal.SIGINT)
