@@ -16,6 +16,8 @@ from strictio.atomic import LineOutput
 from strictio.cli_numbers import Number, check_limit_settings
 from strictio.shown import escape_controls, printable
 
+from .launch import ending_at_once
+
 #: Exit code for a mistake in what the user asked for (a bad file, source or option).
 USER_ERROR = 2
 #: Exit code after Ctrl-C (or SIGTERM) where a command stops without finishing, e.g. while starting.
@@ -74,10 +76,12 @@ def quiet_stdout(stdout: IO[str] | None = None) -> None:
 def parse_and_run(prog: str, parser: argparse.ArgumentParser, argv: list[str] | None,
                   run: Callable[[argparse.Namespace, IO[str]], int]) -> int:
     """A command's usual start: its arguments parsed, logging set up (``--verbose``), the OBJREC_MAX_* limit
-    variables checked, then ``run(args, sys.stdout)``."""
-    args = parser.parse_args(argv)
-    configure_logging(prog, args.verbose)
-    check_limit_settings()
+    variables checked, then ``run(args, sys.stdout)``. Until ``run`` a signal ends the command at once (nothing
+    is open or written yet; see :mod:`.launch`)."""
+    with ending_at_once(prog):
+        args = parser.parse_args(argv)
+        configure_logging(prog, args.verbose)
+        check_limit_settings()
     return run(args, sys.stdout)
 
 

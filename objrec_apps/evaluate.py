@@ -75,6 +75,7 @@ from .eval_report import (
     missed_bars,
     write_report,
 )
+from .launch import ending_at_once
 
 log = logging.getLogger("objrec.eval")
 PROG = "objrec-eval"
@@ -156,20 +157,23 @@ def _length(source: FrameSource, args: argparse.Namespace, truth: TruthSet | Non
 
 def run_system(args: argparse.Namespace, params: str) -> Scored:
     """Run the parameter file's system over the labelled frames of ``--source``."""
-    system = detecting_system(params)
-    kind = get_kind(system.kind)
-    truth = read_truth(kind, args.truth) if args.truth else None
-    bars = bars_asked(args)
-    check_bars(bars, empty_evaluation(kind, args), kind.name)
-    source = open_source_named(args.source, kind)
-    if truth is None and source.length is None and args.max_frames is None:
-        source.close()
-        raise UserError(f"--source {args.source}: has no end: give --max-frames N (or frames=N in the spec)")
-    try:
-        make_out_dir(Path(args.out))  # before the run, not after it
-    except UserError:
-        source.close()
-        raise
+    # Nothing is written before the frames are scored (the report's folder at most, empty): a signal while the
+    # system is built or the source opened ends the command at once.
+    with ending_at_once(PROG):
+        system = detecting_system(params)
+        kind = get_kind(system.kind)
+        truth = read_truth(kind, args.truth) if args.truth else None
+        bars = bars_asked(args)
+        check_bars(bars, empty_evaluation(kind, args), kind.name)
+        source = open_source_named(args.source, kind)
+        if truth is None and source.length is None and args.max_frames is None:
+            source.close()
+            raise UserError(f"--source {args.source}: has no end: give --max-frames N (or frames=N in the spec)")
+        try:
+            make_out_dir(Path(args.out))  # before the run, not after it
+        except UserError:
+            source.close()
+            raise
     progress = BarProgress(args.progress)
     frames_done = 0
 

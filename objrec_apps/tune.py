@@ -26,9 +26,11 @@ from pathlib import Path
 from typing import IO, Any
 
 from objrec_core import (
+    Kind,
     ParameterFileError,
     ParameterStorage,
     PipelineError,
+    RecognitionSystem,
     SourceError,
     UnknownModuleError,
     get_kind,
@@ -52,6 +54,7 @@ from strictio.signals import StopSignals
 
 from .cli import INTERRUPTED, MAX_FRAMES, UserError, detecting_system, parse_and_run, run_command
 from .evaluate import own_truth, plain_paths, read_truth
+from .launch import ending_at_once
 
 log = logging.getLogger("objrec.tune")
 PROG = "objrec-tune"
@@ -169,24 +172,9 @@ class ProgressLines:
 
 
 def run(args: argparse.Namespace, stdout: IO[str]) -> int:
-    _require_optuna()
-    if args.held_out >= 1:
-        raise UserError(f"--held-out {args.held_out}: must be below 1 (some frames must be searched)")
-    refuse_inputs(args.out, [("the parameter file", args.params), ("the truth file", args.truth),
-                             *(("the source", p) for p in plain_paths(args.source))])
-    system = detecting_system(args.params)
-    kind = get_kind(system.kind)
-    try:
-        kind.scorer()
-    except NoGroundTruth as exc:
-        raise UserError(f"{args.params}: {exc}") from None
-    try:  # names and an empty space are refused before any frame is read
-        space = search_space(system.modules, args.fix, args.search)
-    except SearchSpaceError as exc:
-        raise UserError(str(exc)) from None
-    if not space.dimensions:
-        raise UserError("nothing to search: every parameter is fixed, untuned or of a type the search skips")
-    options = {"iou": args.iou} if args.iou is not None else {}
+    # Nothing is open or written before the frames are read: a signal while the system is built ends at once.
+    with ending_at_once(PROG):
+        system, kind, options = _start(args)
     with StopSignals() as stop:
         frames = load_frames(args, kind, stop.event)
         if stop.event.is_set():
@@ -212,6 +200,29 @@ def run(args: argparse.Namespace, stdout: IO[str]) -> int:
         sys.stderr.write(f"{PROG}: interrupted after {result.trials} trials: the best so far is in {args.out}\n")
         return INTERRUPTED
     return 0
+
+
+def _start(args: argparse.Namespace) -> tuple[RecognitionSystem, Kind, dict[str, Any]]:
+    """Everything judged before a frame is read: the options, the outputs, the system and its search space;
+    the system, its kind and the scorer's options."""
+    _require_optuna()
+    if args.held_out >= 1:
+        raise UserError(f"--held-out {args.held_out}: must be below 1 (some frames must be searched)")
+    refuse_inputs(args.out, [("the parameter file", args.params), ("the truth file", args.truth),
+                             *(("the source", p) for p in plain_paths(args.source))])
+    system = detecting_system(args.params)
+    kind = get_kind(system.kind)
+    try:
+        kind.scorer()
+    except NoGroundTruth as exc:
+        raise UserError(f"{args.params}: {exc}") from None
+    try:  # names and an empty space are refused before any frame is read
+        space = search_space(system.modules, args.fix, args.search)
+    except SearchSpaceError as exc:
+        raise UserError(str(exc)) from None
+    if not space.dimensions:
+        raise UserError("nothing to search: every parameter is fixed, untuned or of a type the search skips")
+    return system, kind, {"iou": args.iou} if args.iou is not None else {}
 
 
 def write_tuned(args: argparse.Namespace, result: TuningResult) -> None:

@@ -1,8 +1,9 @@
-"""Run objrec-detect and send it SIGINT at the Nth Python function call of its start-up: from the moment the
-launcher's handler is in place until the run loop takes the signals over. With N = -1 nothing is sent and the
-number of calls in that stretch is written to stderr (``CALLS n``), so that a test can spread N over all of it.
+"""Run a command (objrec-detect, -eval or -tune) and send it SIGINT at the Nth Python function call of its
+start-up: from the moment the launcher's handler is in place until the run loop takes the signals over. With
+N = -1 nothing is sent and the number of calls in that stretch is written to stderr (``CALLS n``), so that a test
+can spread N over all of it.
 
-Usage: python interrupt_at_call.py N objrec-detect-arguments...
+Usage: python interrupt_at_call.py N LAUNCHER arguments...   (LAUNCHER: detect, evaluate or tune)
 
 A signal sent from inside a profile hook is handled at the next call, so every part of the start-up (imports,
 a plug-in's class creation, entry-point scanning, opening the source) is hit, not just where a timer lands.
@@ -17,6 +18,7 @@ from types import FrameType
 from typing import Any
 
 TARGET = int(sys.argv.pop(1))
+LAUNCHER = sys.argv.pop(1)
 _install = signal.signal
 _state = {"calls": 0, "counting": False, "sent": False}
 
@@ -46,6 +48,6 @@ def _watching(sig: int, handler: Any) -> Any:
 signal.signal = _watching
 sys.setprofile(_profile)
 
-from objrec_apps.launch import detect  # noqa: E402 - the launcher's handler must be watched from its start
+from objrec_apps import launch  # noqa: E402 - the launcher's handler must be watched from its start
 
-sys.exit(detect())
+sys.exit(getattr(launch, LAUNCHER)())

@@ -243,32 +243,38 @@ def test_ctrl_c_while_starting_prints_no_traceback(project_root, delay):
         assert all(json.loads(line) for line in out.splitlines())
 
 
-#: Sends SIGINT at the Nth Python call of objrec-detect's start-up (tests/apps/interrupt_at_call.py).
+#: Sends SIGINT at the Nth Python call of a command's start-up (tests/apps/interrupt_at_call.py).
 INTERRUPT_AT_CALL = Path(__file__).with_name("interrupt_at_call.py")
-DETECT_ARGS = [PARAMS, "-s", "demo", "-n", "3"]
 
 
-def detect_interrupted_at(call: int, cwd: Path) -> subprocess.CompletedProcess[str]:
-    return subprocess.run([sys.executable, str(INTERRUPT_AT_CALL), str(call), *DETECT_ARGS], cwd=cwd,
+def interrupted_at(call: int, cwd: Path, launcher: str, args: list[str]) -> subprocess.CompletedProcess[str]:
+    return subprocess.run([sys.executable, str(INTERRUPT_AT_CALL), str(call), launcher, *args], cwd=cwd,
                           capture_output=True, text=True, timeout=180)  # a hang guard
 
 
-def test_ctrl_c_anywhere_in_the_start_up_ends_it_in_one_line(project_root):
+@pytest.mark.parametrize(("prog", "launcher", "args", "points"), [
+    ("objrec-detect", "detect", [PARAMS, "-s", "demo", "-n", "3"], 96),
+    ("objrec-eval", "evaluate", [PARAMS, "--source", "demo:frames=3", "--out", "OUT"], 32),
+    ("objrec-tune", "tune", [PARAMS, "--source", "demo:frames=6", "--trials", "2", "--out", "OUT.yaml"], 32),
+])
+def test_ctrl_c_anywhere_in_the_start_up_ends_it_in_one_line(project_root, tmp_path, prog, launcher, args, points):
     """Not where a timer happens to land but spread over every Python call from the launcher's handler to the
     run loop's: an interrupt raised as an exception there was once printed and lost inside a generator being
     closed (the run then went on to the end) or became 'cannot be loaded' inside a plug-in's class creation."""
-    counted = detect_interrupted_at(-1, project_root)
+    args = [str(tmp_path / a) if a.startswith("OUT") else a for a in args]
+    counted = interrupted_at(-1, project_root, launcher, args)
     assert counted.returncode == 0, counted.stderr
     calls = int(next(line for line in counted.stderr.splitlines() if line.startswith("CALLS ")).split()[1])
     assert calls > 10_000  # the imports, the system and the source: the stretch the signal is spread over
-    # The last few calls are the run loop's own handler going in: a signal there is the loop's (0 frames, 0).
-    for call in np.linspace(1, calls - 20, 96).round().astype(int):
-        done = detect_interrupted_at(int(call), project_root)
+    # The last few calls are the run loop's own handler going in: a signal there is the loop's.
+    for call in np.linspace(1, calls - 20, points).round().astype(int):
+        done = interrupted_at(int(call), project_root, launcher, args)
         assert (done.returncode, done.stdout) == (130, ""), f"SIGINT at call {call}: {done.stderr}"
-        # In the few calls between the launcher's handling and the command's, Python's own KeyboardInterrupt
-        # is what arrives, and the command names no signal.
-        assert done.stderr in ("objrec-detect: interrupted while starting (SIGINT)\n",
-                               "objrec-detect: interrupted while starting\n"), f"SIGINT at call {call}"
+        # In the few calls between one handling and the next, Python's own KeyboardInterrupt is what arrives,
+        # and the command names no signal.
+        assert done.stderr in (f"{prog}: interrupted while starting (SIGINT)\n",
+                               f"{prog}: interrupted while starting\n", f"{prog}: interrupted\n"), \
+            f"SIGINT at call {call}: {done.stderr}"
 
 
 def test_a_run_started_with_ctrl_c_ignored_keeps_ignoring_it_and_stops_on_sigterm(project_root):
