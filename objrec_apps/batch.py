@@ -419,7 +419,8 @@ def _killed_status(output: Path, plan: Plan, runs: int, deaths: int) -> str:
     with its channel and no message), as every failed source has one."""
     times = "twice" if deaths == 2 else f"{deaths} times" if deaths > 2 else "again"
     if runs:
-        kept = f"; {output.name} keeps the frames done before" if output.exists() else ""
+        kept = (f"; {output.name} keeps the frames done before" if output.exists()
+                else f"; no {output.name}: a typed output is written whole or not at all")
         return (f"{FAILED}: its worker process died running it, {'twice' if runs == 2 else f'{runs} times'} (a "
                 f"crash in a library reading it, or out of memory){kept}")
     if plan.fmt == "jsonl":

@@ -31,9 +31,9 @@ def handling(handler: Handler, signals: tuple[int, ...] = STOP_SIGNALS) -> Itera
     changes nothing.
 
     A signal ignored when the block begins stays ignored: a shell starts a background job (``cmd &`` in a
-    script) with Ctrl-C ignored, so that Ctrl-C at the terminal is not for it, and ``nohup``-style wrappers do
-    the same; taking the signal over for part of the run only would make a Ctrl-C count in some phases and
-    vanish in others. SIGTERM, which nobody ignores by convention, still stops such a run."""
+    script) with Ctrl-C ignored, so that Ctrl-C at the terminal is not for it; taking the signal over for part
+    of the run only would make a Ctrl-C count in some phases and vanish in others. SIGTERM, which a shell does
+    not ignore for its jobs, still stops such a run."""
     previous: dict[int, Any] = {}
     if threading.current_thread() is threading.main_thread():
         for sig in signals:

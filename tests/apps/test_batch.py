@@ -316,6 +316,25 @@ def test_a_crashed_sources_counts_are_what_its_kept_lines_hold(tmp_path: Path) -
     assert result.frames == 3
 
 
+def test_a_crashed_sources_row_says_what_became_of_its_output(project_root: Path, tmp_path: Path) -> None:
+    """A source whose worker died while running it: JSON Lines keep the lines written before, a typed output
+    (written whole or not at all) is not there, and the row says which."""
+    from objrec_apps.batch import _killed_status, make_plan
+
+    for fmt in ("jsonl", "mcap"):
+        plan = make_plan(str(project_root / "params/hsv_demo.yaml"), ["demo:frames=2"], str(tmp_path / fmt), fmt)
+        output = plan.out_dir / plan.outputs[0]
+        if fmt == "jsonl":
+            output.parent.mkdir(parents=True, exist_ok=True)
+            output.write_text('{"objects": []}\n', encoding="utf-8")
+        said = {"jsonl": f"; {output.name} keeps the frames done before",
+                "mcap": f"; no {output.name}: a typed output is written whole or not at all"}[fmt]
+        status = _killed_status(output, plan, 2, 2)
+        assert status.startswith("failed: its worker process died running it, twice"), status
+        assert status.endswith(said), status
+        assert output.exists() == (fmt == "jsonl")  # nothing made up in place of the lost MCAP
+
+
 def test_a_never_started_source_gets_an_empty_output_in_either_format(project_root: Path, tmp_path: Path) -> None:
     """Worker processes died running other sources before this one started: it still has its output, an empty
     JSON Lines file or an MCAP file (read back by the mcap library) with its channel and no message."""
