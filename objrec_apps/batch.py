@@ -71,6 +71,7 @@ from .cli import (
     report,
     run_command,
 )
+from .launch import ending_at_once
 from .outputs import check_topic, default_topic, open_typed_writer, require_rosbags
 from .scheduler_probe import DEFAULT_TIMEOUT, SchedulerUnusable, probe
 
@@ -611,8 +612,9 @@ def totals_line(outcome: BatchOutcome) -> str:
 
 # -- the command ----------------------------------------------------------------------------------------------
 def run(args: argparse.Namespace, stdout: IO[str]) -> int:
-    plan = make_plan(args.params, args.sources, args.out, args.format, args.max_frames, args.output_topic,
-                     args.frame_id)
+    with ending_at_once(PROG):  # before a worker starts nothing runs or is written: a signal ends it at once
+        plan = make_plan(args.params, args.sources, args.out, args.format, args.max_frames, args.output_topic,
+                         args.frame_id)
     try:
         with handling(raise_interrupt, (signal.SIGTERM,)):  # SIGTERM as Ctrl-C: cancel what is left, still summarize
             outcome = run_batch(plan, args.workers, args.scheduler, args.progress, args.scheduler_timeout)

@@ -256,6 +256,7 @@ def interrupted_at(call: int, cwd: Path, launcher: str, args: list[str]) -> subp
     ("objrec-detect", "detect", [PARAMS, "-s", "demo", "-n", "3"], 96),
     ("objrec-eval", "evaluate", [PARAMS, "--source", "demo:frames=3", "--out", "OUT"], 32),
     ("objrec-tune", "tune", [PARAMS, "--source", "demo:frames=6", "--trials", "2", "--out", "OUT.yaml"], 32),
+    ("objrec-batch", "batch", [PARAMS, "demo:frames=2", "--out", "OUT", "-w", "1"], 24),
 ])
 def test_ctrl_c_anywhere_in_the_start_up_ends_it_in_one_line(project_root, tmp_path, prog, launcher, args, points):
     """Not where a timer happens to land but spread over every Python call from the launcher's handler to the
