@@ -23,7 +23,6 @@ from __future__ import annotations
 import argparse
 import collections
 import itertools
-import math
 import os
 import time
 from dataclasses import replace
@@ -33,10 +32,16 @@ import numpy as np
 from machine import cpu_model  # benchmarks/machine.py: scripts run with benchmarks/ on sys.path
 
 from navigation.costmap import ObstacleField
-from navigation.geometry import Pose2D
 from navigation.maps import OccupancyMap, load_map
 from navigation.move_base import PATIENT_RECOVERY_BEHAVIOURS, RECOVERY_BEHAVIOURS, GoalStatus, MoveBaseParams
-from navigation.people_scenarios import Corridor, corridor_map, drive_goals, find_corridor, walker
+from navigation.people_scenarios import (
+    Corridor,
+    corridor_ends,
+    corridor_map,
+    drive_goals,
+    find_corridor,
+    pacing_walkers,
+)
 from navigation.planner import Planner
 from navigation.simulation import SimConfig, Simulation
 from navigation.world import World
@@ -57,13 +62,8 @@ def seeds_of(text: str) -> list[int]:
 def run(occ_map: OccupancyMap, corridor: Corridor, seed: int, goals: int, walkers: int, avoid: str,
         localization: str, recoveries: str = "default", trail_check: bool = False) -> dict:
     """One seeded run: walkers placed along the corridor, the robot driven end to end ``goals`` times."""
-    rng = np.random.default_rng(seed)
-    half, side = corridor.half_length, max(0.0, corridor.half_width - 0.45)
-    people = tuple(walker(f"walker_{k}", corridor.point(rng.uniform(-half + 0.5, -0.5), rng.uniform(-side, side)),
-                          corridor.point(rng.uniform(0.5, half - 0.5), rng.uniform(-side, side)),
-                          float(rng.uniform(0.3, 0.6)), avoid) for k in range(walkers))
-    ends = [Pose2D(*corridor.point(half - 0.3), corridor.heading),
-            Pose2D(*corridor.point(-half + 0.3), corridor.heading + math.pi)]
+    people = pacing_walkers(corridor, np.random.default_rng(seed), walkers, avoid)
+    ends = corridor_ends(corridor)
     noise = 0.05 if localization == "amcl" else 0.0
     config = SimConfig(seed=seed, localization=localization, odom_linear_noise=noise, odom_angular_noise=noise,
                        move_base=MoveBaseParams(recovery_behaviours=RECOVERIES[recoveries]))

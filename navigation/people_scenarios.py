@@ -70,6 +70,24 @@ class Corridor:
         return self.x + along * c - across * s, self.y + along * s + across * c
 
 
+def pacing_walkers(corridor: Corridor, rng: np.random.Generator, count: int = 2, avoid: str = "stop"
+                   ) -> tuple[MovingObstacle, ...]:
+    """``count`` walkers from seeded random places, each pacing between a point in the corridor's first half and
+    one in its second at 0.3-0.6 m/s, kept 0.45 m off its walls: the people benchmark's scene."""
+    half, side = corridor.half_length, max(0.0, corridor.half_width - 0.45)
+    return tuple(walker(f"walker_{k}", corridor.point(rng.uniform(-half + 0.5, -0.5), rng.uniform(-side, side)),
+                        corridor.point(rng.uniform(0.5, half - 0.5), rng.uniform(-side, side)),
+                        float(rng.uniform(0.3, 0.6)), avoid) for k in range(count))
+
+
+def corridor_ends(corridor: Corridor) -> tuple[Pose2D, Pose2D]:
+    """The two goals 0.3 m short of the corridor's ends, each facing on out of it: a robot sent between them
+    drives its whole length."""
+    half = corridor.half_length
+    return (Pose2D(*corridor.point(half - 0.3), corridor.heading),
+            Pose2D(*corridor.point(-half + 0.3), corridor.heading + math.pi))
+
+
 def find_corridor(field: ObstacleField, half_length: float = 2.5, min_half_width: float = 0.55,
                   max_half_width: float = 1.1) -> Corridor | None:
     """The first straight stretch (by heading, then row by row) whose centre line keeps between

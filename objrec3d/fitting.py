@@ -762,8 +762,6 @@ def _unit_rays(pts: np.ndarray, origin: np.ndarray) -> np.ndarray | None:
     return rays / lengths[:, None]
 
 
-
-
 def _ray_residuals(pts: np.ndarray, rays: np.ndarray, center: np.ndarray, radius: float) -> np.ndarray:
     """How far each point lies from the circle (2D) or sphere (3D) along its ray: the depth error that puts
     it on the surface (the nearer crossing). ``rays`` may be shorter than unit (a 3D ray seen in a cylinder's

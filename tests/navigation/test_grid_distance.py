@@ -4,14 +4,11 @@ one seed's corridor run into 0 or 1 aborted goals from one process to the next).
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 
-from navigation.geometry import Pose2D
 from navigation.grid_distance import distance_to_zero
 from navigation.move_base import PATIENT_RECOVERY_BEHAVIOURS, MoveBaseParams
-from navigation.people_scenarios import Corridor, corridor_map, drive_goals, walker
+from navigation.people_scenarios import Corridor, corridor_ends, corridor_map, drive_goals, pacing_walkers
 from navigation.simulation import SimConfig, Simulation
 from navigation.world import World
 
@@ -41,14 +38,9 @@ def test_every_call_on_a_map_gives_the_same_bits():
 def seeded_corridor_run(seed: int) -> tuple[float, list[tuple[object, str]], int]:
     """Two walkers pacing a corridor with door recesses and a robot sent end to end six times (the people
     benchmark's scene): when it ended, how each goal ended, and how many plans it made."""
-    rng = np.random.default_rng(seed)
     corridor = Corridor(6.0, 1.0, 0.0, 5.5, 0.95)
-    half, side = corridor.half_length, corridor.half_width - 0.45
-    people = tuple(walker(f"walker_{k}", corridor.point(rng.uniform(-half + 0.5, -0.5), rng.uniform(-side, side)),
-                          corridor.point(rng.uniform(0.5, half - 0.5), rng.uniform(-side, side)),
-                          float(rng.uniform(0.3, 0.6))) for k in range(2))
-    ends = [Pose2D(*corridor.point(half - 0.3), corridor.heading),
-            Pose2D(*corridor.point(-half + 0.3), corridor.heading + math.pi)]
+    people = pacing_walkers(corridor, np.random.default_rng(seed))
+    ends = corridor_ends(corridor)
     config = SimConfig(seed=seed, move_base=MoveBaseParams(recovery_behaviours=PATIENT_RECOVERY_BEHAVIOURS))
     sim = Simulation(corridor_map(12.0, 2.0, doors=2.5), ends[1], config, world=World(obstacles=people))
     results = drive_goals(sim, [ends[k % 2] for k in range(6)])
