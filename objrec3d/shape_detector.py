@@ -33,7 +33,7 @@ from .fitting import ShapeFit, ShapeSettings, fit_plane, full_costs, ransac_shap
 from .messages import DetectedObject3D, OrientedBox, Point, Pose, Quaternion
 from .normals import adaptive_normals, grid_normals, no_surface
 from .tracking import IdentityTracker
-from .vec import cross3, dot3, norms
+from .vec import cross3, dot3, norms, squared_norms
 
 log = logging.getLogger(__name__)
 
@@ -73,6 +73,9 @@ SCREEN_SHARE = 0.5
 SCREEN_ARC = 0.75
 #: The screen's allowance over ``max_inside`` (see ``SCREEN_SHARE``).
 SCREEN_INSIDE = 0.15
+
+#: A point on a found cylinder's flat end has its normal within 45 degrees of the axis (``cap_points``).
+CAP_COS = math.cos(math.radians(45.0))
 
 #: The shapes one detector can look for, alone or together (joined by "+", always in this order).
 SHAPES = ("cylinder", "sphere", "plane")
@@ -256,6 +259,7 @@ class ShapeDetector(CloudDetector):
             # The strongest fit first; others of this round too when they share (almost) no points with it.
             accepted.sort(key=lambda f: -f.fit.inliers.size)
             taken = np.zeros(points.shape[0], dtype=bool)
+            before = len(found)
             for candidate in accepted:
                 if len(found) >= p.max_objects:
                     break
@@ -265,6 +269,10 @@ class ShapeDetector(CloudDetector):
                 taken[candidate.fit.inliers] = True
             alive = alive[~taken[alive]]
             free &= ~taken
+            # A found cylinder's flat ends leave the search with it (``cap_points``), set aside as a rejected
+            # fit's points are: not taken by the object, but no longer searched.
+            for candidate in found[before:]:
+                alive = alive[~cap_points(candidate.fit, points, normals, alive, settings.threshold)]
         if p.segment_noise > 0 and "cylinder" in shapes and len(found) < p.max_objects and far_pass_available():
             found += self._segment_then_fit(points, normals, free, settings, cloud.sensor_origin, p)[
                 : p.max_objects - len(found)]
@@ -543,6 +551,27 @@ def cell_components(count: int, rows: np.ndarray, cols: np.ndarray) -> np.ndarra
         if np.array_equal(spread, label):
             return label
         label = spread
+
+
+def cap_points(fit: ShapeFit, points: np.ndarray, normals: np.ndarray, among: np.ndarray, threshold: float
+               ) -> np.ndarray:
+    """Which of the points ``among`` (indices) lie on a found cylinder's flat ends: within ``threshold`` of
+    either end of its inliers along the axis, inside its radius, their normals within 45 degrees of the axis.
+
+    A standing cylinder seen from above shows its top. Left in the search, the top is eaten a sliver a round:
+    fits of 6-10 cm radius over 20-50 degrees of it, each refused (``min_arc``) and only its inliers set aside,
+    so most of a several-shape search's rounds after its last object were spent there. Only the points inside
+    the radius: the rim beyond it is where a neighbouring object may touch (a small sphere beside a cylinder's
+    top). Any other shape: none (a plane's ``axis`` is its normal)."""
+    if fit.shape != "cylinder" or fit.axis is None or among.size == 0:
+        return np.zeros(among.size, dtype=bool)
+    ends = dot3(points[fit.inliers] - fit.center, fit.axis)
+    low, high = float(ends.min()), float(ends.max())
+    rel = points[among] - fit.center
+    along = dot3(rel, fit.axis)
+    across = squared_norms(rel) - along * along
+    near_end = (np.abs(along - low) < threshold) | (np.abs(along - high) < threshold)
+    return near_end & (across < fit.radius * fit.radius) & (np.abs(dot3(normals[among], fit.axis)) > CAP_COS)
 
 
 def coverage(fit: ShapeFit, inliers: np.ndarray) -> float:

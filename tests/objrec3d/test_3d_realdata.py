@@ -101,10 +101,11 @@ ARC_CHECKS_OFF = {"min_turn": 0.0, "min_arc_normals": 0.0, "max_sag": 100.0, "ma
 @pytest.mark.parametrize("shipped_filter", [False, True])
 def test_milk_scan_gives_the_clorox_bottle_and_nothing_else_at_three_objects(clouds, shipped_filter: bool) -> None:
     """Flat-sided objects are not cylinders: the detergent bottle (rounded corners, flat faces) gave a 9.8 cm
-    cylinder next to the Clorox bottle for every seed, and seed 1 a 5.1 cm one on the other flat-sided object's
-    rounded edge. The visible arc around each fit gives them away (``arc_checks``): the normals there turn 0.66
-    degrees per degree of arc on the 5.1 cm edge (0.96 on the Clorox bottle), agree with the fit on 69 % and
-    73 % of the two edges' arcs (98-99 % on the bottle), and the 5.1 cm edge's distances sag by 5 times their
+    cylinder next to the Clorox bottle for every seed, and with the visible arc's checks off seed 2 gives a 5.0 cm
+    one on the other flat-sided object's rounded edge (seed 1 gave it, 5.1 cm, before a found cylinder's flat ends
+    left the search with it). The visible arc around each fit gives them away (``arc_checks``): the normals there
+    turn 0.66 degrees per degree of arc on the 5.0 cm edge (0.96 on the Clorox bottle), agree with the fit on 69 %
+    and 73 % of the two edges' arcs (98-99 % on the bottle), and the 5.0 cm edge's distances sag by 5 times their
     noise. Over ten seeds: the Clorox bottle and nothing else."""
     cloud = clouds["milk_cartoon_all_small_clorox"]
     if shipped_filter:
@@ -122,9 +123,9 @@ def test_milk_scan_gives_the_clorox_bottle_and_nothing_else_at_three_objects(clo
     assert len(ShapeDetector(max_objects=3, **ARC_CHECKS_OFF).detect(prepared)) == 1
     strict = ShapeDetector(max_objects=3, max_inside=1.0, **ARC_CHECKS_OFF).detect(prepared)
     assert len(strict) == 2 and max(o.radius for o in strict) > 0.09
-    # and the arc's profile is what rejects seed 1's rounded edge
-    edge = ShapeDetector(max_objects=3, random_seed=1, **ARC_CHECKS_OFF).detect(prepared)
-    assert sorted(round(o.radius, 3) for o in edge) == [0.051, 0.061]
+    # and the arc's profile is what rejects seed 2's rounded edge
+    edge = ShapeDetector(max_objects=3, random_seed=2, **ARC_CHECKS_OFF).detect(prepared)
+    assert sorted(round(o.radius, 3) for o in edge) == [0.05, 0.062]
 
 
 def test_the_inside_check_passes_the_mug_and_the_clorox_bottle(clouds) -> None:

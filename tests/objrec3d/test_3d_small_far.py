@@ -4,13 +4,14 @@ detector; 0.6-3 m, 1.5 mm x z^2 depth noise, flying pixels, standing and lying c
 Recall by visible-point band, organized and unorganized (the same points without their grid), within
 5 mm / 3 mm / 2 degrees as tests/objrec3d/test_3d_scenes.py; a false object is a detection near no object.
 Figures (40 scenes, 2026-11-26, seeds 0-39), shipped defaults (the segment-then-fit pass on: ``segment_noise``
-0.0015, ``cluster_fit``): points >= 300 organized 98/114 (86 %), unorganized 103/114 (90 %), beyond 2 m 27
+0.0015, ``cluster_fit``): points >= 300 organized 98/114 (86 %), unorganized 105/114 (92 %), beyond 2 m 26
 and 28 of 36, no false object. Without the pass (``segment_noise`` 0): organized 87/114 (76 %), unorganized
-90/114 (79 %), beyond 2 m 16 of 36. The 600-1,500 band organized 34/38 (35/38 before the screen before the
-final fit judged at looser limits: scene 2's lying cylinder, 778 points at 1.12 m, is left while the search runs
-out of rounds; no visible-arc check refuses it). The
-target, 85 % on both paths within 10 points of each other and no false object, is what the asserts hold
-(organized: 98 where 96.9 are needed).
+91/114 (80 %), beyond 2 m 15 and 16 of 36. The detector's seed moves these by a few objects: seeds 0-4 give
+97-101 organized and 101-105 unorganized, none false (docs/quality.md, small and far objects). The 600-1,500
+band organized 34/38 (35/38 before the screen before the final fit judged at looser limits: scene 2's lying
+cylinder, 778 points at 1.12 m, is left while the search runs out of rounds; no visible-arc check refuses it).
+The target, 85 % on both paths within 10 points of each other and no false object, is what the asserts hold
+(organized: 98 where 96.9 are needed; 97-101 for seeds 0-4).
 """
 
 from __future__ import annotations
