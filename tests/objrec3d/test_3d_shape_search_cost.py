@@ -63,7 +63,6 @@ def test_a_batch_is_scored_on_the_whole_subsample_for_its_best_few_only(monkeypa
     assert preemptive and all(PREEMPT_POINTS <= m < 2 * PREEMPT_POINTS for m in preemptive)
 
 
-
 def _standing_cylinder_with_top(rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray, int]:
     """A 4 cm cylinder's visible side (points, outward normals), then its top disc (normals along the axis),
     then a 2 cm sphere's cap beside the top: the points, the normals and where the top starts."""
