@@ -259,7 +259,9 @@ class ShapeDetector(CloudDetector):
             # The strongest fit first; others of this round too when they share (almost) no points with it.
             accepted.sort(key=lambda f: -f.fit.inliers.size)
             taken = np.zeros(points.shape[0], dtype=bool)
-            before = len(found)
+            # A found cylinder's flat ends leave the search with it (``cap_points``), set aside as a rejected
+            # fit's points are: not taken by the object, but no longer searched.
+            searched = np.zeros(points.shape[0], dtype=bool)
             for candidate in accepted:
                 if len(found) >= p.max_objects:
                     break
@@ -267,12 +269,9 @@ class ShapeDetector(CloudDetector):
                     continue
                 found.append(candidate)
                 taken[candidate.fit.inliers] = True
-            alive = alive[~taken[alive]]
+                searched[alive[cap_points(candidate.fit, points, normals, alive, settings.threshold)]] = True
+            alive = alive[~(taken | searched)[alive]]
             free &= ~taken
-            # A found cylinder's flat ends leave the search with it (``cap_points``), set aside as a rejected
-            # fit's points are: not taken by the object, but no longer searched.
-            for candidate in found[before:]:
-                alive = alive[~cap_points(candidate.fit, points, normals, alive, settings.threshold)]
         if p.segment_noise > 0 and "cylinder" in shapes and len(found) < p.max_objects and far_pass_available():
             found += self._segment_then_fit(points, normals, free, settings, cloud.sensor_origin, p)[
                 : p.max_objects - len(found)]

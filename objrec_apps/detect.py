@@ -18,6 +18,7 @@ import logging
 import signal
 import sys
 from collections.abc import Callable, Iterable, Iterator, Sequence
+from contextlib import contextmanager
 from dataclasses import dataclass
 from functools import partial
 from pathlib import Path
@@ -382,14 +383,19 @@ def _main(argv: list[str] | None) -> int:
         check_limit_settings()
         if args.list_topics:
             return _list_topics(args, sys.stdout)
-        try:
+        with _mistakes_of(args.params):
             started = start(args)
-        except PipelineError as exc:
-            raise UserError(f"{args.params}: {exc}") from None
-    try:
+    with _mistakes_of(args.params):
         return run(args, started, sys.stdout)
+
+
+@contextmanager
+def _mistakes_of(params: str) -> Iterator[None]:
+    """The system's mistakes (while it is built or while it runs) as the user's, naming its parameter file."""
+    try:
+        yield
     except PipelineError as exc:
-        raise UserError(f"{args.params}: {exc}") from None
+        raise UserError(f"{params}: {exc}") from None
 
 
 if __name__ == "__main__":

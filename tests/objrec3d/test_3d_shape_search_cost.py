@@ -104,26 +104,25 @@ def test_no_search_nibbles_a_found_cylinders_top(monkeypatch) -> None:
     from objrec3d import shape_detector as module
     from objrec3d.demo import shape_scene
 
-    searched: list[tuple[np.ndarray, object]] = []
+    searched: list[tuple[np.ndarray, np.ndarray, object]] = []  # the points and normals searched, the result
     search = module.ShapeDetector._search
 
     def recording(self, shape, points, normals, alive, *rest, **kw):
         result = search(self, shape, points, normals, alive, *rest, **kw)
-        searched.append((points, result[0]))
+        searched.append((points, normals, result[0]))
         return result
 
     monkeypatch.setattr(module.ShapeDetector, "_search", recording)
     nibbles = rounds = 0
     for seed, distance in ((9002, 1.0), (9003, 1.25), (9013, 1.5), (9022, 1.5)):  # the benchmark's scenes
         cloud, _, _ = shape_scene(np.random.default_rng(seed), distance)
-        detector = ShapeDetector(shape="cylinder+sphere", max_objects=6, segment_noise=0.0)
         searched.clear()
+        detector = ShapeDetector(shape="cylinder+sphere", max_objects=6, segment_noise=0.0)
         detector.detect(PlaneRemovalFilter().filter(cloud))
-        points = searched[0][0]
-        _, normals, _ = detector.points_with_normals(PlaneRemovalFilter().filter(cloud))
-        cylinders = [r.fit for _, r in searched if isinstance(r, module.Found) and r.fit.shape == "cylinder"]
+        points, normals, _ = searched[0]
+        cylinders = [r.fit for _, _, r in searched if isinstance(r, module.Found) and r.fit.shape == "cylinder"]
         assert cylinders, seed
-        for _, result in searched:
+        for _, _, result in searched:
             if isinstance(result, np.ndarray):  # a refused fit's inliers
                 rounds += 1
                 nibbles += any(module.cap_points(c, points, normals, result, 0.01).mean() > 0.5 for c in cylinders)
