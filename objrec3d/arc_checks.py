@@ -38,7 +38,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .fitting import ShapeFit
-from .vec import dot3
+from .vec import cross3, dot3
 
 #: Half-width of the window around the direction to the sensor, degrees. A camera sees a cylinder's arc up to
 #: 90 degrees either side; beyond 70 the normals are smoothed across the silhouette (the mug scan's stereo depth
@@ -107,7 +107,7 @@ def arc_profile(fit: ShapeFit, points: np.ndarray, normals: np.ndarray, threshol
     if np.linalg.norm(toward) < 1e-9:  # looking straight along the axis: there is no arc to see
         return None
     u = toward / np.linalg.norm(toward)
-    v = np.cross(axis, u)
+    v = cross3(axis, u)
     x, y = dot3(rel, u), dot3(rel, v)
     dist = np.hypot(x, y)
     # |angle from the sensor's direction| < WINDOW_DEGREES, as x >= cos * dist: no angle for every point.
@@ -137,9 +137,12 @@ def arc_profile(fit: ShapeFit, points: np.ndarray, normals: np.ndarray, threshol
     agreement = float(np.mean(off < math.radians(AGREEMENT_DEGREES)))
     # Per bin of the arc angle, the medians: another object's points in the window (a neighbour's side, flying
     # pixels) move a bin's median little and a least-squares fit through every point much.
-    bins = np.floor((at + math.pi) / math.radians(BIN_DEGREES)).astype(np.int64)
+    # 8-bit bin numbers (37 at most): NumPy sorts them by counting, stably, in one pass.
+    bins = np.floor((at + math.pi) / math.radians(BIN_DEGREES)).astype(np.uint8)
     order = np.argsort(bins, kind="stable")
-    _, starts, sizes = np.unique(bins[order], return_index=True, return_counts=True)
+    counts = np.bincount(bins)
+    sizes = counts[counts > 0]
+    starts = np.cumsum(sizes) - sizes
     full = sizes >= MIN_BIN_POINTS
     if full.sum() < 3:
         return None
@@ -172,14 +175,14 @@ def _wave(bins: np.ndarray, departure: np.ndarray, mid_at: np.ndarray, starts: n
 
     A round surface leaves a band about the line; a rounded box a swing (a flat stretch's normals lag behind
     the arc, the rounded edge's catch up), which no straight line takes out."""
-    mid_departure = _bin_medians(bins, departure, starts, sizes)
-    ordered = departure[np.lexsort((departure, bins))]
+    ordered = departure[by_bin_and_value(bins, departure)]
+    mid_departure = ordered[starts + (sizes - 1) // 2]  # _bin_medians, from the sort needed below anyway
     # Each bin's median absolute deviation from its median, all bins in one sort (np.median's value: the middle
     # one, or the mean of the two middle ones).
-    member = np.repeat(np.arange(sizes.size), sizes)
+    member = np.repeat(np.arange(sizes.size, dtype=np.uint8), sizes)
     within = np.arange(member.size) - np.repeat(np.cumsum(sizes) - sizes, sizes)
     deviation = np.abs(ordered[np.repeat(starts, sizes) + within] - np.repeat(mid_departure, sizes))
-    deviation = deviation[np.lexsort((deviation, member))]
+    deviation = deviation[by_bin_and_value(member, deviation)]
     first = np.cumsum(sizes) - sizes
     spread = 1.4826 * ((deviation[first + (sizes - 1) // 2] + deviation[first + sizes // 2]) / 2.0)
     inner = np.abs(mid_at) <= math.radians(WAVE_DEGREES)
@@ -198,5 +201,13 @@ def _wave(bins: np.ndarray, departure: np.ndarray, mid_at: np.ndarray, starts: n
 def _bin_medians(bins: np.ndarray, values: np.ndarray, starts: np.ndarray, sizes: np.ndarray) -> np.ndarray:
     """The (lower) median of ``values`` in each bin that starts at ``starts`` (and holds ``sizes``) in the
     order of the sorted bins: one sort by bin and value, no median per bin."""
-    ordered = values[np.lexsort((values, bins))]
+    ordered = values[by_bin_and_value(bins, values)]
     return ordered[starts + (sizes - 1) // 2]
+
+
+def by_bin_and_value(bins: np.ndarray, values: np.ndarray) -> np.ndarray:
+    """The order of ``np.lexsort((values, bins))`` up to ties of equal values (which give the same medians): by
+    value, then stably by bin. For 8-bit ``bins`` the second sort is NumPy's counting sort; together a quarter
+    of lexsort's time on a visible arc's 1,500 points, and the profile takes five such sorts."""
+    by_value = np.argsort(values)
+    return by_value[np.argsort(bins[by_value], kind="stable")]

@@ -508,9 +508,9 @@ def largest_cluster(points: np.ndarray, cell: float) -> np.ndarray:
     if points.shape[0] == 0:
         return np.arange(0)
     keys = np.floor(points / cell).astype(np.int64)
-    keys -= keys.min(axis=0) - 1
-    span = keys.max(axis=0) + 2
-    flat = (keys[:, 0] * span[1] + keys[:, 1]) * span[2] + keys[:, 2]
+    x, y, z = (keys[:, k] - (keys[:, k].min() - 1) for k in range(3))  # columns: no reduction along a short axis
+    span = (int(x.max()) + 2, int(y.max()) + 2, int(z.max()) + 2)
+    flat = (x * span[1] + y) * span[2] + z
     order = np.argsort(flat)
     ordered = flat[order]
     first = np.empty(ordered.size, dtype=bool)  # np.unique's cells and inverse, without its second sort
@@ -589,7 +589,7 @@ def coverage(fit: ShapeFit, inliers: np.ndarray) -> float:
         tangent = directions - dot3(directions, mean)[:, None] * mean
         _, vectors = np.linalg.eigh(np.einsum("ni,nj->ij", tangent, tangent))
         minor = vectors[:, 1]  # eigenvalue 0 belongs to `mean`; the next smallest is the narrow direction
-        spread = np.percentile(np.abs(dot3(tangent, minor)), 95)
+        spread = percentile_95(np.abs(dot3(tangent, minor)))
         return float(2.0 * np.degrees(np.arcsin(min(spread, 1.0))))
     axis = fit.axis
     u = cross3(axis, [1.0, 0.0, 0.0] if abs(axis[0]) < 0.9 else [0.0, 1.0, 0.0])
@@ -600,11 +600,31 @@ def coverage(fit: ShapeFit, inliers: np.ndarray) -> float:
     occupied = counts >= max(2, 0.1 * inliers.shape[0] / 36)
     if occupied.all():
         return 360.0
-    run = best = 0
-    for flag in np.concatenate([occupied, occupied]):
-        run = run + 1 if flag else 0
-        best = max(best, run)
-    return float(10 * min(best, 36))
+    return float(10 * longest_circular_run(occupied))
+
+
+def longest_circular_run(flags: np.ndarray) -> int:
+    """The longest run of true values in ``flags`` read around a circle (not all true): where a run starts and
+    where it ends, found in the flags read twice."""
+    twice = np.concatenate([[False], flags, flags, [False]]).astype(np.int8)
+    edges = np.diff(twice)
+    starts, ends = np.flatnonzero(edges == 1), np.flatnonzero(edges == -1)
+    return int((ends - starts).max()) if starts.size else 0
+
+
+def percentile_95(values: np.ndarray) -> float:
+    """``np.percentile(values, 95)`` (its linear interpolation, to the bit) by one partition: NumPy's general
+    quantile machinery costs ten times that on the thousand inliers of a sphere's coverage."""
+    n = values.size
+    index = (n - 1) * 0.95
+    low = math.floor(index)
+    if low >= n - 1:
+        return float(values.max())
+    part = np.partition(values, [low, low + 1])
+    below, above = part[low], part[low + 1]
+    gamma = index - low
+    diff = above - below
+    return float(above - diff * (1 - gamma) if gamma >= 0.5 else below + diff * gamma)
 
 
 def radial_frame(fit: ShapeFit, points: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -128,3 +128,83 @@ def test_no_search_nibbles_a_found_cylinders_top(monkeypatch) -> None:
                 nibbles += any(module.cap_points(c, points, normals, result, 0.01).mean() > 0.5 for c in cylinders)
     assert rounds >= 8  # the scenes still end with refused fits: only the tops are not among them
     assert nibbles == 0
+
+
+def test_percentile_95_is_numpys_to_the_bit() -> None:
+    """A sphere's coverage takes the 95th percentile by one partition: the same value as np.percentile."""
+    from objrec3d.shape_detector import percentile_95
+
+    rng = np.random.default_rng(11)
+    for n in [*range(1, 60), 137, 900, 1999]:
+        values = np.abs(rng.normal(size=n))
+        assert percentile_95(values) == np.percentile(values, 95), n
+    assert percentile_95(np.full(40, 0.25)) == 0.25
+
+
+def test_longest_circular_run_wraps_around() -> None:
+    from objrec3d.shape_detector import longest_circular_run
+
+    flags = np.zeros(36, dtype=bool)
+    assert longest_circular_run(flags) == 0
+    flags[[0, 1, 2, 33, 34, 35]] = True  # one run of six across the seam
+    flags[10:15] = True
+    assert longest_circular_run(flags) == 6
+    flags[20:32] = True
+    assert longest_circular_run(flags) == 12
+    rng = np.random.default_rng(4)
+    for _ in range(500):  # against the plain reading of the flags twice
+        flags = rng.random(36) < rng.random()
+        if flags.all():
+            continue
+        run = best = 0
+        for flag in np.concatenate([flags, flags]):
+            run = run + 1 if flag else 0
+            best = max(best, run)
+        assert longest_circular_run(flags) == best
+
+
+def test_a_cylinders_coverage_is_its_arc() -> None:
+    """Inliers over 120 degrees of a cylinder cover the 12 or 13 10-degree bins they touch, a cap of a sphere its
+    angular diameter."""
+    from objrec3d.fitting import ShapeFit
+    from objrec3d.shape_detector import coverage
+
+    rng = np.random.default_rng(2)
+    angle = rng.uniform(np.radians(5.0), np.radians(125.0), 2000)
+    points = np.stack([0.04 * np.cos(angle), rng.uniform(-0.05, 0.05, angle.size), 0.04 * np.sin(angle)], axis=1)
+    cylinder = ShapeFit("cylinder", np.zeros(3), np.array([0.0, 1.0, 0.0]), 0.04, np.arange(angle.size), 0.0)
+    assert coverage(cylinder, points) in (120.0, 130.0)
+    direction = rng.normal(size=(3000, 3))
+    direction /= np.linalg.norm(direction, axis=1)[:, None]
+    cap = direction[direction[:, 2] > np.cos(np.radians(30.0))]  # a cap 60 degrees across
+    sphere = ShapeFit("sphere", np.zeros(3), None, 1.0, np.arange(cap.shape[0]), 0.0)
+    assert 48.0 < coverage(sphere, cap) <= 60.0  # the 95th percentile: a little under the whole 60
+
+
+def test_the_largest_connected_piece_is_found() -> None:
+    """Two groups of points apart by more than a cell: the larger; a chain of touching cells is one piece."""
+    from objrec3d.shape_detector import largest_cluster
+
+    rng = np.random.default_rng(6)
+    small = rng.uniform(0.0, 0.02, (300, 3))
+    large = rng.uniform(0.0, 0.02, (500, 3)) + np.array([0.1, 0.0, -0.05])
+    points = np.concatenate([small, large])
+    np.testing.assert_array_equal(largest_cluster(points, 0.01), np.arange(300, 800))
+    chain = np.stack([np.linspace(0.0, 0.3, 400), np.zeros(400), np.zeros(400)], axis=1)
+    assert largest_cluster(np.concatenate([chain, small + np.array([0.0, 0.5, 0.0])]), 0.01).size == 400
+
+
+def test_the_arcs_bin_medians_are_lexsorts() -> None:
+    """The visible arc's per-bin medians by a value sort and a stable 8-bit bin sort: lexsort's values."""
+    from objrec3d.arc_checks import _bin_medians, by_bin_and_value
+
+    rng = np.random.default_rng(9)
+    for n in (5, 40, 1500):
+        bins = rng.integers(0, 37, n).astype(np.uint8)
+        values = np.round(rng.normal(size=n), 2)  # ties within a bin included
+        np.testing.assert_array_equal(values[by_bin_and_value(bins, values)], values[np.lexsort((values, bins))])
+        counts = np.bincount(bins)
+        sizes = counts[counts > 0]
+        starts = np.cumsum(sizes) - sizes
+        ordered = values[np.lexsort((values, bins))]
+        np.testing.assert_array_equal(_bin_medians(bins, values, starts, sizes), ordered[starts + (sizes - 1) // 2])
