@@ -19,7 +19,7 @@ code, give both the same scenes (``--scenes N``: the first N, whatever the time)
 several times, keeping the fastest (``--repeats K``).
 
 Usage: python benchmarks/bench_shapes.py [--seconds 60] [--scenes N] [--repeats K] [--no-peers]
-[--segment-noise S]; from code: ``run(seconds_budget, peers, segment_noise, scenes, repeats)``.
+[--segment-noise S]; from code: ``run(seconds_budget, peers, segment_noise, scenes_wanted, repeats)``.
 """
 
 from __future__ import annotations
