@@ -176,14 +176,14 @@ def _wave(bins: np.ndarray, departure: np.ndarray, mid_at: np.ndarray, starts: n
     A round surface leaves a band about the line; a rounded box a swing (a flat stretch's normals lag behind
     the arc, the rounded edge's catch up), which no straight line takes out."""
     ordered = departure[by_bin_and_value(bins, departure)]
-    mid_departure = ordered[starts + (sizes - 1) // 2]  # _bin_medians, from the sort needed below anyway
+    mid_departure = _lower_middles(ordered, starts, sizes)  # the bins' medians, from the sort needed below anyway
     # Each bin's median absolute deviation from its median, all bins in one sort (np.median's value: the middle
     # one, or the mean of the two middle ones).
     member = np.repeat(np.arange(sizes.size, dtype=np.uint8), sizes)
-    within = np.arange(member.size) - np.repeat(np.cumsum(sizes) - sizes, sizes)
+    first = np.cumsum(sizes) - sizes  # where each bin starts among the members
+    within = np.arange(member.size) - np.repeat(first, sizes)
     deviation = np.abs(ordered[np.repeat(starts, sizes) + within] - np.repeat(mid_departure, sizes))
     deviation = deviation[by_bin_and_value(member, deviation)]
-    first = np.cumsum(sizes) - sizes
     spread = 1.4826 * ((deviation[first + (sizes - 1) // 2] + deviation[first + sizes // 2]) / 2.0)
     inner = np.abs(mid_at) <= math.radians(WAVE_DEGREES)
     if inner.sum() < MIN_WAVE_BINS:
@@ -201,7 +201,11 @@ def _wave(bins: np.ndarray, departure: np.ndarray, mid_at: np.ndarray, starts: n
 def _bin_medians(bins: np.ndarray, values: np.ndarray, starts: np.ndarray, sizes: np.ndarray) -> np.ndarray:
     """The (lower) median of ``values`` in each bin that starts at ``starts`` (and holds ``sizes``) in the
     order of the sorted bins: one sort by bin and value, no median per bin."""
-    ordered = values[by_bin_and_value(bins, values)]
+    return _lower_middles(values[by_bin_and_value(bins, values)], starts, sizes)
+
+
+def _lower_middles(ordered: np.ndarray, starts: np.ndarray, sizes: np.ndarray) -> np.ndarray:
+    """Per bin of ``ordered`` (sorted by bin and value), its lower middle value: the bin's (lower) median."""
     return ordered[starts + (sizes - 1) // 2]
 
 
